@@ -1,0 +1,1 @@
+"""Hops component server for planar-quad meshing."""
