@@ -55,14 +55,13 @@ def sphere_cap():
 
 @pytest.fixture
 def mixed_strip():
-    """A strip of two quads, one triangle and one pentagon, padded to width 5."""
+    """Planar (z = 0) strip of two quads, a triangle and a convex pentagon, padded to width 5."""
     V = np.array(
-        [[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0], [3, 1, 0], [4, 0.5, 0],
-         [3.5, 1.5, 0]],
+        [[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0], [3, 1.3, 0],
+         [4, 0.5, 0], [4, 1.5, 0]],
         dtype=float,
     )
-    F = pad_faces([[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 8, 9, 7]], k=5)
-    F = np.vstack([F, pad_faces([[2, 3, 7]], k=5)[:0]])
+    F = pad_faces([[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 6], [3, 8, 9, 7, 6]], k=5)
     return V, F
 
 
