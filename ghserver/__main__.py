@@ -1,0 +1,3 @@
+from ghserver.cli import main
+
+raise SystemExit(main())

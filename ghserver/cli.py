@@ -1,0 +1,117 @@
+"""Command line: ``ghserver serve``, ``ghserver list``.
+
+``python -m ghserver`` and the ``ghserver`` console script both call :func:`main`.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import socket
+import sys
+
+log = logging.getLogger("ghserver")
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 5000
+
+
+def _ipv6_loopback_available() -> bool:
+    if not socket.has_ipv6:
+        return False
+    try:
+        with socket.socket(socket.AF_INET6, socket.SOCK_STREAM) as s:
+            s.bind(("::1", 0))
+        return True
+    except OSError:
+        return False
+
+
+def make_server(app, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, threads: int = 8, **kw):
+    """A waitress server for ``app``; on the default loopback host it also listens on ``[::1]`` when available.
+
+    Windows resolves ``localhost`` to ``::1`` first, so a Hops path ``http://localhost:5000/…`` stays fast.
+    """
+    from waitress import create_server
+
+    listen = [f"{host}:{port}" if ":" not in host else f"[{host}]:{port}"]
+    if host == DEFAULT_HOST and port != 0 and _ipv6_loopback_available():
+        listen.append(f"[::1]:{port}")
+    opts = dict(threads=threads, channel_timeout=600, ident="ghserver", clear_untrusted_proxy_headers=True)
+    opts.update(kw)
+    try:
+        return create_server(app, listen=" ".join(listen), **opts)
+    except OSError:
+        if len(listen) > 1:  # IPv6 half failed (port taken on ::1 only): serve IPv4 alone
+            return create_server(app, listen=listen[0], **opts)
+        raise
+
+
+def _serve(args) -> int:
+    from ghserver.app import Config, create_app
+
+    cfg = Config(max_body_mb=args.max_body_mb, cache_size=args.cache_size, report_dir=args.report_dir)
+    app = create_app(cfg)
+    n = len(app.extensions["ghserver.registry"])
+    try:
+        server = make_server(app, args.host, args.port, threads=args.threads,
+                             max_request_body_size=int(args.max_body_mb * 2**20) + 1)
+    except OSError as exc:
+        log.error("cannot listen on %s:%s: %s", args.host, args.port, exc)
+        return 2
+    log.info("serving %d components on http://%s:%d/ (threads=%d, cache=%d, body limit %g MB)", n, args.host,
+             server.effective_port if hasattr(server, "effective_port") else args.port, args.threads,
+             args.cache_size, args.max_body_mb)
+    log.info("in Grasshopper: Hops path http://%s:%d/<component>, e.g. http://%s:%d/metrics/planarity",
+             args.host, args.port, args.host, args.port)
+    try:
+        server.run()
+    except KeyboardInterrupt:
+        log.info("stopped")
+    return 0
+
+
+def _list(args) -> int:
+    from ghserver.endpoints import build_registry
+
+    reg = build_registry()
+    for c in reg:
+        ins = ", ".join(f"{p.name}:{p.kind}{'[]' if p.access == 'list' else ''}{'?' if p.optional else ''}"
+                        for p in c.inputs)
+        outs = ", ".join(p.name for p in c.outputs)
+        print(f"/{c.uri:32s} {c.description}")
+        if args.verbose:
+            print(f"    in:  {ins}\n    out: {outs}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="ghserver", description="Planar-quad meshing components for Grasshopper Hops")
+    parser.add_argument("--log-level", default="INFO", help="DEBUG, INFO, WARNING (default INFO)")
+    sub = parser.add_subparsers(dest="command")
+    s = sub.add_parser("serve", help="run the Hops component server")
+    s.add_argument("--host", default=DEFAULT_HOST, help=f"address to bind (default {DEFAULT_HOST}, loopback only)")
+    s.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT})")
+    s.add_argument("--threads", type=int, default=8, help="worker threads answering requests (default 8)")
+    s.add_argument("--cache-size", type=int, default=64, help="solved results kept in memory; 0 disables (default 64)")
+    s.add_argument("--max-body-mb", type=float, default=512, help="largest request body in MB (default 512)")
+    s.add_argument("--report-dir", default=None, help="folder whose report.html is served at /report")
+    s.set_defaults(func=_serve)
+    ls = sub.add_parser("list", help="print the component catalogue")
+    ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")
+    ls.set_defaults(func=_list)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=getattr(logging, str(args.log_level).upper(), logging.INFO),
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,301 @@
+"""rhino3dm ⇄ plain Python values. The only module of the project that imports rhino3dm.
+
+* Mesh ⇄ ``(V, F)``: ``V (n, 3) float64`` (double-precision vertices), ``F (m, 4) int64`` with triangles as
+  ``(a, b, c, c)``; faces with more than four corners are written as a triangle fan (Rhino meshes hold only
+  triangles and quads). Meshes are read and written through the openNURBS archive directly
+  (:mod:`ghserver._onmesh`) when its layout is recognised, through rhino3dm objects otherwise.
+* Curve ⇄ polyline ``(n, 3)`` array (PolylineCurve, LineCurve, polyline-shaped NURBS of degree 1) or
+  :class:`components.types.NurbsCurve` (everything else, through ``ToNurbsCurve``).
+* Surface → :class:`components.types.NurbsSurface` (a NurbsSurface, any Surface, or a one-face Brep).
+
+Errors are :class:`DecodeError` with a message that says what was wrong; the protocol layer prefixes the input's
+name.
+"""
+from __future__ import annotations
+
+import json
+import logging
+
+import numpy as np
+import rhino3dm
+
+from components.mesh import face_sizes, triangulate
+from components.types import NurbsCurve, NurbsSurface
+
+log = logging.getLogger(__name__)
+
+try:  # fast archive reader/writer (pure numpy); optional until it lands
+    from ghserver import _onmesh
+except ImportError:  # pragma: no cover
+    _onmesh = None
+
+
+class DecodeError(ValueError):
+    """A geometry blob could not be decoded into the expected type."""
+
+
+# ----------------------------------------------------------------------------------------------
+# CommonObject JSON
+
+
+def parse_blob(data) -> dict:
+    """The ``{"version", "archive3dm", "opennurbs", "data"}`` dict of an encoded rhino3dm object.
+
+    ``data`` is the JSON text Hops sends (or the dict itself, as some clients send).
+    """
+    if isinstance(data, str):
+        try:
+            data = json.loads(data)
+        except json.JSONDecodeError as exc:
+            raise DecodeError(f"geometry data is not JSON ({exc.msg} at position {exc.pos})") from None
+    if not isinstance(data, dict):
+        raise DecodeError(f"geometry data must be an encoded Rhino object, got {type(data).__name__}")
+    missing = [k for k in ("archive3dm", "opennurbs", "data") if k not in data]
+    if missing:
+        raise DecodeError(f"geometry data lacks {', '.join(missing)} (not an encoded Rhino object)")
+    for key in ("archive3dm", "opennurbs", "version"):
+        if key in data and not (isinstance(data[key], int) and not isinstance(data[key], bool)):
+            try:
+                data = dict(data, **{key: int(str(data[key]))})
+            except ValueError:
+                raise DecodeError(f"geometry data field {key!r} must be an integer") from None
+    if not isinstance(data["data"], str):
+        raise DecodeError("geometry data field 'data' must be a base64 string")
+    return data
+
+
+def decode_object(data):
+    """Decode an encoded Rhino object (JSON text or dict) with rhino3dm; never returns None."""
+    blob = parse_blob(data)
+    try:
+        obj = rhino3dm.CommonObject.Decode(blob)
+    except Exception as exc:  # rhino3dm raises RuntimeError/TypeError on malformed fields
+        raise DecodeError(f"geometry data could not be decoded ({type(exc).__name__})") from None
+    if obj is None:
+        raise DecodeError("geometry data could not be decoded (corrupt or unsupported archive)")
+    return obj
+
+
+def encode_object(obj) -> str:
+    """JSON text of a rhino3dm object, as Hops expects it in ``data``."""
+    return json.dumps(obj.Encode())
+
+
+# ----------------------------------------------------------------------------------------------
+# meshes
+
+
+def mesh_to_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, F)`` of a rhino3dm Mesh (slow, object-by-object path)."""
+    pts = mesh.Vertices.ToPoint3dArray()
+    V = np.array([(p.X, p.Y, p.Z) for p in pts], dtype=np.float64).reshape(-1, 3)
+    faces = mesh.Faces
+    F = np.array([faces[i] for i in range(len(faces))], dtype=np.int64).reshape(-1, 4)
+    return V, F
+
+
+def decode_mesh(data) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, F)`` from an encoded Rhino mesh (JSON text or dict).
+
+    Raises
+    ------
+    DecodeError
+        Not JSON, not a Rhino object, corrupt, or not a mesh.
+    """
+    blob = parse_blob(data)
+    if _onmesh is not None:
+        arrays = _onmesh.read_mesh(blob)
+        if arrays is not None:
+            return arrays
+    obj = decode_object(blob)
+    if not isinstance(obj, rhino3dm.Mesh):
+        raise DecodeError(f"expected a Mesh, got a {type(obj).__name__}")
+    return mesh_to_arrays(obj)
+
+
+def _rhino_faces(F: np.ndarray) -> np.ndarray:
+    """Faces as Rhino can hold them: quads and triangles ``(m, 4)``; n-gons become triangle fans."""
+    F = np.asarray(F, dtype=np.int64)
+    if F.shape[1] == 4:
+        return F
+    if F.shape[1] == 3:
+        return np.concatenate([F, F[:, 2:3]], axis=1)
+    sizes = face_sizes(F)
+    small = sizes <= 4
+    out = np.empty((len(F), 4), dtype=np.int64)
+    out[:, :4] = F[:, :4]
+    out[sizes == 3, 3] = F[sizes == 3, 2]
+    parts = [out[small]]
+    if (~small).any():
+        T, _ = triangulate(F[~small])
+        parts.append(np.concatenate([T, T[:, 2:3]], axis=1))
+    return np.concatenate(parts)
+
+
+def arrays_to_mesh(V, F, colors=None):
+    """A rhino3dm Mesh with double-precision vertices (object-by-object path)."""
+    V = np.asarray(V, dtype=np.float64)
+    F4 = _rhino_faces(F)
+    mesh = rhino3dm.Mesh()
+    mesh.Vertices.UseDoublePrecisionVertices = True
+    add = mesh.Vertices.AddPoint3d
+    for x, y, z in V.tolist():
+        add(x, y, z)
+    addf = mesh.Faces.AddFace
+    for a, b, c, d in F4.tolist():
+        addf(a, b, c, d)
+    if colors is not None:
+        addc = mesh.VertexColors.Add
+        for r, g, b in np.asarray(colors)[:, :3].astype(int).tolist():
+            addc(r, g, b)
+    return mesh
+
+
+def encode_mesh(V, F, colors=None) -> str:
+    """JSON text of a Rhino mesh holding ``(V, F)`` (and per-vertex RGB ``colors`` (n, 3) uint8 if given)."""
+    V = np.asarray(V, dtype=np.float64)
+    F4 = _rhino_faces(F)
+    if _onmesh is not None and colors is None:
+        return json.dumps(_onmesh.write_mesh(V, F4))
+    return encode_object(arrays_to_mesh(V, F4, colors))
+
+
+# ----------------------------------------------------------------------------------------------
+# curves and surfaces
+
+
+def _points4(points_list, count: int) -> np.ndarray:
+    P = np.empty((count, 4))
+    for i in range(count):
+        p = points_list[i]
+        P[i] = (p.X, p.Y, p.Z, p.W)
+    return P
+
+
+def curve_to_value(obj):
+    """A Python curve value from a rhino3dm curve: polyline array or :class:`NurbsCurve`."""
+    if isinstance(obj, rhino3dm.LineCurve):
+        return np.array([[obj.PointAtStart.X, obj.PointAtStart.Y, obj.PointAtStart.Z],
+                         [obj.PointAtEnd.X, obj.PointAtEnd.Y, obj.PointAtEnd.Z]])
+    if isinstance(obj, rhino3dm.PolylineCurve):
+        pts = [obj.Point(i) for i in range(obj.PointCount)]
+        return np.array([(p.X, p.Y, p.Z) for p in pts], dtype=np.float64)
+    if not isinstance(obj, rhino3dm.Curve):
+        raise DecodeError(f"expected a Curve, got a {type(obj).__name__}")
+    nc = obj if isinstance(obj, rhino3dm.NurbsCurve) else obj.ToNurbsCurve()
+    if nc is None:
+        raise DecodeError(f"the {type(obj).__name__} has no NURBS form")
+    n = len(nc.Points)
+    H = _points4(nc.Points, n)  # homogeneous (x·w, y·w, z·w, w)
+    w = H[:, 3].copy()
+    if np.any(w <= 0):
+        raise DecodeError("curve has a non-positive control point weight")
+    P = H[:, :3] / w[:, None]
+    knots = np.array(nc.Knots.ToList(), dtype=np.float64)
+    return NurbsCurve(degree=int(nc.Degree), points=P, weights=w, knots=knots, periodic=bool(nc.IsPeriodic))
+
+
+def decode_curve(data):
+    return curve_to_value(decode_object(data))
+
+
+def value_to_curve(value):
+    """A rhino3dm curve from a polyline array or :class:`NurbsCurve`."""
+    if isinstance(value, NurbsCurve):
+        P = np.asarray(value.points, dtype=np.float64)
+        w = np.asarray(value.weights, dtype=np.float64)
+        k = np.asarray(value.knots, dtype=np.float64)
+        rational = bool(np.any(w != 1.0))
+        nc = rhino3dm.NurbsCurve(3, rational, int(value.degree) + 1, len(P))
+        for i, (p, wi) in enumerate(zip(P.tolist(), w.tolist())):
+            nc.Points[i] = rhino3dm.Point4d(p[0] * wi, p[1] * wi, p[2] * wi, wi)
+        for i, ki in enumerate(k.tolist()):
+            nc.Knots[i] = ki
+        return nc
+    P = np.asarray(value, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or len(P) < 2:
+        raise ValueError(f"a polyline needs shape (n >= 2, 3), got {P.shape}")
+    return rhino3dm.PolylineCurve([rhino3dm.Point3d(*p) for p in P.tolist()])
+
+
+def encode_curve(value) -> str:
+    return encode_object(value_to_curve(value))
+
+
+def decode_surface(data) -> NurbsSurface:
+    """A :class:`NurbsSurface` from an encoded NurbsSurface, Surface or one-face Brep."""
+    obj = decode_object(data)
+    if isinstance(obj, rhino3dm.Brep):
+        if len(obj.Faces) != 1:
+            raise DecodeError(f"expected a surface, got a Brep with {len(obj.Faces)} faces")
+        obj = obj.Faces[0].UnderlyingSurface()
+    if not isinstance(obj, rhino3dm.Surface):
+        raise DecodeError(f"expected a Surface, got a {type(obj).__name__}")
+    ns = obj if isinstance(obj, rhino3dm.NurbsSurface) else obj.ToNurbsSurface()
+    if ns is None:
+        raise DecodeError(f"the {type(obj).__name__} has no NURBS form")
+    nu, nv = ns.Points.CountU, ns.Points.CountV
+    H = np.empty((nu, nv, 4))
+    for i in range(nu):
+        for j in range(nv):
+            p = ns.Points[i, j]
+            H[i, j] = (p.X, p.Y, p.Z, p.W)
+    w = H[..., 3].copy()
+    if np.any(w <= 0):
+        raise DecodeError("surface has a non-positive control point weight")
+    return NurbsSurface(
+        degree_u=int(ns.Degree(0)), degree_v=int(ns.Degree(1)), points=H[..., :3] / w[..., None], weights=w,
+        knots_u=np.array(ns.KnotsU.ToList(), dtype=np.float64), knots_v=np.array(ns.KnotsV.ToList(), dtype=np.float64),
+    )
+
+
+def value_to_surface(value: NurbsSurface):
+    """A rhino3dm NurbsSurface from a :class:`NurbsSurface` (used by tests and the client)."""
+    P = np.asarray(value.points, dtype=np.float64)
+    w = np.asarray(value.weights, dtype=np.float64)
+    nu, nv = P.shape[:2]
+    rational = bool(np.any(w != 1.0))
+    ns = rhino3dm.NurbsSurface.Create(3, rational, value.degree_u + 1, value.degree_v + 1, nu, nv)
+    for i in range(nu):
+        for j in range(nv):
+            x, y, z = P[i, j]
+            wi = w[i, j]
+            ns.Points[i, j] = rhino3dm.Point4d(x * wi, y * wi, z * wi, wi)
+    for i, k in enumerate(np.asarray(value.knots_u, dtype=float).tolist()):
+        ns.KnotsU[i] = k
+    for i, k in enumerate(np.asarray(value.knots_v, dtype=float).tolist()):
+        ns.KnotsV[i] = k
+    return ns
+
+
+def encode_surface(value: NurbsSurface) -> str:
+    return encode_object(value_to_surface(value))
+
+
+def to_value(obj):
+    """Python value of any supported rhino3dm object (used by the client for outputs and inputs)."""
+    if isinstance(obj, rhino3dm.Mesh):
+        return mesh_to_arrays(obj)
+    if isinstance(obj, rhino3dm.Curve):
+        return curve_to_value(obj)
+    if isinstance(obj, (rhino3dm.Surface, rhino3dm.Brep)):
+        return decode_surface(obj.Encode())
+    if isinstance(obj, rhino3dm.Point3d):
+        return np.array([obj.X, obj.Y, obj.Z])
+    if isinstance(obj, rhino3dm.Point):
+        loc = obj.Location
+        return np.array([loc.X, loc.Y, loc.Z])
+    raise DecodeError(f"unsupported rhino3dm object {type(obj).__name__}")
+
+
+def is_rhino_object(value) -> bool:
+    return isinstance(value, (rhino3dm.CommonObject, rhino3dm.Point3d, rhino3dm.Vector3d))
+
+
+def decode_point_object(data) -> np.ndarray:
+    """Point from an encoded ``Rhino.Geometry.Point`` (what the Geometry param sends for points)."""
+    obj = decode_object(data)
+    if isinstance(obj, rhino3dm.Point):
+        loc = obj.Location
+        return np.array([loc.X, loc.Y, loc.Z])
+    raise DecodeError(f"expected a Point, got a {type(obj).__name__}")

@@ -1,0 +1,366 @@
+"""Hops JSON ⇄ component calls: data trees, tolerances, units, errors.
+
+:func:`solve` is the whole solve path: request body (already parsed JSON) in, ``(status, response dict)`` out.
+It never raises. It is a plain function of picklable arguments so it can run in a worker process with a time
+limit without reshaping it.
+
+Grasshopper semantics (hops-protocol.md §2): item and list inputs given several branches are solved branch by
+branch with longest-list matching (the last branch / item repeats); within a branch, item inputs given several
+items are solved item by item. Outputs keep the branch path of the input with the most branches; when a branch
+is solved more than once, item outputs collect one value per iteration in that branch and list outputs get a
+sub-branch per iteration (``{path;i}``), as Grasshopper does.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from components.mesh import InputError
+from ghserver import params as P
+from ghserver.registry import Component, Registry
+
+log = logging.getLogger(__name__)
+
+BAD_INPUTS = "Bad inputs"  # errors[0] that makes Hops re-fetch the metadata (hops-protocol.md §4.1)
+MAX_TREE_DEPTH = 32
+
+
+class RequestError(Exception):
+    """A bad request; ``status`` is the HTTP code, the message names the input."""
+
+    def __init__(self, message: str, status: int = 400, errors: list[str] | None = None):
+        super().__init__(message)
+        self.status = status
+        self.errors = errors or [message]
+
+
+@dataclass
+class SolveRequest:
+    pointer: str
+    values: list = field(default_factory=list)
+    absolutetolerance: float | None = None
+    angletolerance: float | None = None  # degrees, as Hops sends it
+    modelunits: str | None = None
+    cachesolve: bool = True
+
+
+# ----------------------------------------------------------------------------------------------
+# request parsing
+
+
+def pointer_uri(pointer: str) -> str:
+    """Component URI of a ``pointer``: "foo", "/foo", "foo/", "http://host:5000/foo?x" and %-encoding."""
+    from urllib.parse import unquote, urlsplit
+
+    p = str(pointer).strip()
+    if re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*://", p):
+        p = urlsplit(p).path
+    p = p.split("?", 1)[0]
+    return unquote(p).strip("/")
+
+
+def parse_request(body: Any, uri: str | None = None) -> SolveRequest:
+    """Validate the top level of a solve body; ``uri`` (direct POST) overrides ``pointer``."""
+    if not isinstance(body, dict):
+        raise RequestError(f"request body must be a JSON object, got {type(body).__name__}")
+    pointer = uri if uri is not None else body.get("pointer")
+    if not pointer:
+        if body.get("algo"):
+            raise RequestError("this server runs its own components; send 'pointer' (a component URI), not 'algo'")
+        raise RequestError("request has no 'pointer' naming the component")
+    if not isinstance(pointer, str):
+        raise RequestError("'pointer' must be a string")
+    values = body.get("values", [])
+    if values is None:
+        values = []
+    if not isinstance(values, list):
+        raise RequestError("'values' must be a list of data trees")
+    tol = body.get("absolutetolerance")
+    ang = body.get("angletolerance")
+    for name, v in (("absolutetolerance", tol), ("angletolerance", ang)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0):
+            raise RequestError(f"'{name}' must be a non-negative number, got {v!r}")
+    units = body.get("modelunits")
+    if units is not None and not isinstance(units, str):
+        raise RequestError("'modelunits' must be a string")
+    return SolveRequest(
+        pointer=pointer_uri(pointer), values=values, absolutetolerance=float(tol) if tol else None,
+        angletolerance=float(ang) if ang else None, modelunits=units, cachesolve=bool(body.get("cachesolve", True)),
+    )
+
+
+def parse_path(key) -> tuple[int, ...]:
+    """Branch path of a tree key: ``{0;1}``, ``0;1``, ``{ 0; 1; }``, ``0`` → ``(0, 1)`` / ``(0,)``."""
+    if not isinstance(key, str):
+        raise ValueError(f"tree key {key!r} is not a string")
+    s = key.strip().strip("{}").replace(" ", "")
+    parts = [t for t in s.split(";") if t != ""]
+    if not parts:
+        raise ValueError(f"tree key {key!r} has no path")
+    if len(parts) > MAX_TREE_DEPTH:
+        raise ValueError(f"tree key {key[:40]!r} is deeper than {MAX_TREE_DEPTH} levels")
+    try:
+        path = tuple(int(t) for t in parts)
+    except ValueError:
+        raise ValueError(f"tree key {key!r} is not a path like {{0;1}}") from None
+    if any(i < 0 or i > 2**31 - 1 for i in path):
+        raise ValueError(f"tree key {key!r} has an index out of range")
+    return path
+
+
+def format_path(path: tuple[int, ...]) -> str:
+    return "{" + ";".join(str(i) for i in path) + "}"
+
+
+def _input_trees(component: Component, req: SolveRequest) -> dict[str, dict[tuple, list]]:
+    """``{input name: {path: [items]}}`` (paths sorted) for every input present in the request."""
+    known = {p.name for p in component.inputs}
+    trees: dict[str, dict[tuple, list]] = {}
+    unknown = []
+    for i, tree in enumerate(req.values):
+        if not isinstance(tree, dict):
+            raise RequestError(f"values[{i}] must be an object with ParamName and InnerTree")
+        name = tree.get("ParamName")
+        if not isinstance(name, str):
+            raise RequestError(f"values[{i}] has no ParamName")
+        name = name[6:] if name.startswith("RH_IN:") else name
+        if name not in known:
+            unknown.append(name)
+            continue
+        inner = tree.get("InnerTree", {})
+        if inner is None:
+            inner = {}
+        if not isinstance(inner, dict):
+            raise RequestError(f"{name}: InnerTree must be an object mapping branch paths to item lists")
+        branches: dict[tuple, list] = {}
+        for key, items in inner.items():
+            try:
+                path = parse_path(key)
+            except ValueError as exc:
+                raise RequestError(f"{name}: {exc}") from None
+            if items is None:
+                items = []
+            if not isinstance(items, list):
+                raise RequestError(f"{name}: branch {key!r} must be a list of items")
+            branches.setdefault(path, []).extend(items)
+        if name in trees:
+            raise RequestError(f"{name}: given twice")
+        trees[name] = dict(sorted(branches.items()))
+    if unknown:
+        expected = ", ".join(p.name for p in component.inputs)
+        msg = f"unknown input(s) {', '.join(map(repr, unknown))} for {component.uri} (inputs: {expected})"
+        # Hops re-fetches the metadata on 500 "Bad inputs": the component changed since it was loaded
+        raise RequestError(msg, status=500, errors=[BAD_INPUTS, msg])
+    return trees
+
+
+# ----------------------------------------------------------------------------------------------
+# values of one input
+
+
+def _decode_items(param, items: list) -> list:
+    out = []
+    for j, item in enumerate(items):
+        try:
+            out.append(P.decode_item(param.kind, item))
+        except P.ParamError as exc:
+            where = f" item {j}" if len(items) > 1 else ""
+            raise RequestError(f"{param.name}{where}: {exc}") from None
+        except RecursionError:
+            raise RequestError(f"{param.name}: item {j} is nested too deeply") from None
+    return out
+
+
+def _list_value(param, values: list):
+    kind = param.kind
+    if kind == "Number":
+        return np.asarray(values, dtype=np.float64).reshape(-1)
+    if kind == "Integer":
+        return np.asarray(values, dtype=np.int64).reshape(-1)
+    if kind == "Boolean":
+        return np.asarray(values, dtype=bool).reshape(-1)
+    if kind in ("Point", "Vector"):
+        return np.asarray(values, dtype=np.float64).reshape(-1, 3)
+    if kind == "Line":
+        return np.asarray(values, dtype=np.float64).reshape(-1, 2, 3)
+    return list(values)
+
+
+# ----------------------------------------------------------------------------------------------
+# the solve
+
+
+def _context(component: Component, req: SolveRequest) -> dict:
+    ctx = {}
+    if "absolute_tolerance" in component.context and req.absolutetolerance:
+        ctx["absolute_tolerance"] = req.absolutetolerance
+    if "angle_tolerance" in component.context and req.angletolerance:
+        ctx["angle_tolerance"] = math.radians(req.angletolerance)
+    if "model_units" in component.context and req.modelunits:
+        ctx["model_units"] = req.modelunits
+    return ctx
+
+
+def _iterations(component: Component, trees: dict[str, dict[tuple, list]]):
+    """Yield ``(path, iteration index, iteration count in branch, kwargs)`` following Grasshopper's matching."""
+    inputs = component.inputs
+    branched = [p for p in inputs if p.access != "tree"]
+    # decoded tree inputs are passed whole to every call
+    tree_values = {}
+    for p in inputs:
+        if p.access == "tree":
+            t = trees.get(p.name, {})
+            if not t and not p.optional and not p.has_default:
+                raise RequestError(f"{p.name}: missing required input (the tree is empty)")
+            if t:
+                tree_values[p.name] = {path: _decode_items(p, items) for path, items in t.items()}
+            elif p.has_default:
+                tree_values[p.name] = p.default
+            else:
+                tree_values[p.name] = None
+    # branch lists per non-tree input (only non-empty branches count, as in Grasshopper)
+    branch_lists = {p.name: [(path, items) for path, items in trees.get(p.name, {}).items() if items]
+                    for p in branched}
+    n_branches = max([len(b) for b in branch_lists.values()] + [1])
+    master = max(branched, key=lambda p: len(branch_lists[p.name]), default=None)
+    for b in range(n_branches):
+        if master is not None and branch_lists[master.name]:
+            bl = branch_lists[master.name]
+            path = bl[min(b, len(bl) - 1)][0]
+        else:
+            path = (b,)
+        per_input = {}
+        for p in branched:
+            bl = branch_lists[p.name]
+            items = bl[min(b, len(bl) - 1)][1] if bl else []
+            if not items:
+                if p.has_default or p.optional:
+                    per_input[p.name] = None  # use the default
+                    continue
+                raise RequestError(f"{p.name}: missing required input (no value given)")
+            per_input[p.name] = items
+        counts = [len(v) for p in branched if p.access == "item" and (v := per_input[p.name]) is not None]
+        n_iter = max(counts + [1])
+        decoded = {}
+        for p in branched:
+            items = per_input[p.name]
+            if items is None:
+                continue
+            if p.access == "list":
+                decoded[p.name] = _list_value(p, _decode_items(p, items))
+            else:
+                decoded[p.name] = _decode_items(p, items)
+        for i in range(n_iter):
+            kwargs = dict(tree_values)
+            for p in branched:
+                if p.name not in decoded:
+                    continue  # default
+                v = decoded[p.name]
+                kwargs[p.name] = v[min(i, len(v) - 1)] if p.access == "item" else v
+            yield path, i, n_iter, kwargs
+
+
+def _check_list_lengths(component: Component, kwargs: dict):
+    for p in component.inputs:
+        if p.access == "list" and p.name in kwargs and not p.optional and len(kwargs[p.name]) == 0:
+            raise RequestError(f"{p.name}: needs at least one item")
+
+
+def run(component: Component, req: SolveRequest) -> dict:
+    """Solve a parsed request; raises :class:`RequestError` for bad input. Returns the response dict."""
+    trees = _input_trees(component, req)
+    ctx = _context(component, req)
+    out_trees: list[dict[str, list]] = [{} for _ in component.outputs]
+    warnings: list[str] = []
+    for path, i, n_iter, kwargs in _iterations(component, trees):
+        _check_list_lengths(component, kwargs)
+        try:
+            result = component.function(**kwargs, **ctx)
+        except InputError as exc:
+            raise RequestError(str(exc)) from None
+        fields = result._asdict() if hasattr(result, "_asdict") else None
+        if fields is None:
+            raise TypeError(f"{component.name} returned {type(result).__name__}, not its NamedTuple")
+        if component.warnings_field and fields.get("warnings"):
+            for w in fields["warnings"]:
+                if w not in warnings:
+                    warnings.append(str(w))
+        for k, p in enumerate(component.outputs):
+            value = fields[p.name]
+            try:
+                items = [] if value is None else [P.encode_item(p.kind, v)
+                                                  for v in P.output_items(p.kind, p.access, value)]
+            except P.OutputError as exc:
+                raise P.OutputError(f"output {p.name!r} of {component.uri}: {exc}") from None
+            if n_iter > 1 and p.access != "item":
+                key = format_path(path + (i,))
+            else:
+                key = format_path(path)
+            out_trees[k].setdefault(key, []).extend(items)
+    return {
+        "values": [{"ParamName": p.name, "InnerTree": t} for p, t in zip(component.outputs, out_trees)],
+        "warnings": warnings,
+        "errors": [],
+    }
+
+
+def error_body(errors: list[str], warnings: list[str] | None = None) -> dict:
+    return {"values": [], "warnings": warnings or [], "errors": errors}
+
+
+def solve(registry: Registry, body: Any, uri: str | None = None) -> tuple[int, dict, str]:
+    """The whole solve path. Returns ``(status, response, component uri)``; never raises.
+
+    400 bad input (named), 404-free: an unknown component is a 400 too, 500 "Bad inputs" when the client's
+    inputs do not match the component (so Hops refreshes), 500 with one line on an unexpected failure.
+    """
+    comp_uri = ""
+    try:
+        req = parse_request(body, uri)
+        comp_uri = req.pointer
+        component = registry.get(req.pointer)
+        if component is None:
+            raise RequestError(f"unknown component {req.pointer!r}; GET / lists the components")
+        return 200, run(component, req), comp_uri
+    except RequestError as exc:
+        return exc.status, error_body(exc.errors), comp_uri
+    except MemoryError:
+        log.exception("out of memory in %s", comp_uri)
+        return 500, error_body([f"{comp_uri}: out of memory"]), comp_uri
+    except Exception as exc:  # unexpected: one line to the client, traceback to the log
+        log.exception("solve of %s failed", comp_uri or "?")
+        msg = str(exc).splitlines()[0] if str(exc) else ""
+        return 500, error_body([f"internal error in {comp_uri or 'solve'}: {type(exc).__name__}: {msg}"[:500]]), comp_uri
+
+
+def describe_inputs(body: Any) -> str:
+    """Short summary of a request's input sizes for the access log: ``name=items/bytes``."""
+    if not isinstance(body, dict) or not isinstance(body.get("values"), list):
+        return ""
+    parts = []
+    for tree in body["values"][:20]:
+        if not isinstance(tree, dict):
+            continue
+        inner = tree.get("InnerTree") or {}
+        if not isinstance(inner, dict):
+            continue
+        n = sum(len(v) for v in inner.values() if isinstance(v, list))
+        size = sum(len(str(it.get("data", ""))) for v in inner.values() if isinstance(v, list)
+                   for it in v if isinstance(it, dict))
+        parts.append(f"{tree.get('ParamName')}={n}/{_human(size)}")
+    return " ".join(parts)
+
+
+def _human(n: int) -> str:
+    for unit in ("B", "kB", "MB"):
+        if n < 1024:
+            return f"{n}{unit}"
+        n //= 1024
+    return f"{n}GB"
+
+

@@ -1,0 +1,233 @@
+"""Test-only components that return their inputs: every param kind and access, both ways."""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from components.mesh import InputError
+from components.types import (Curve, Curves, Integers, Line, Lines, Mesh, Meshes, NurbsSurface, Numbers, Plane,
+                              Point, Points, Texts, Tree, Vector, Vectors)
+
+
+class Scalars(NamedTuple):
+    number: float
+    integer: int
+    boolean: bool
+    text: str
+
+
+def scalars(number: float = 0.0, integer: int = 0, boolean: bool = False, text: str = "") -> Scalars:
+    """Return the scalar inputs unchanged.
+
+    Parameters
+    ----------
+    number : float
+        A number.
+    integer : int
+        An integer.
+    boolean : bool
+        A flag.
+    text : str
+        Some text.
+
+    Returns
+    -------
+    number : float
+        The number.
+    integer : int
+        The integer.
+    boolean : bool
+        The flag.
+    text : str
+        The text.
+    """
+    return Scalars(number, integer, boolean, text)
+
+
+class Geometry(NamedTuple):
+    point: Point
+    vector: Vector
+    plane: Plane
+    line: Line
+    curve: Curve
+    mesh: Mesh
+
+
+def geometry(point: Point, vector: Vector, plane: Plane, line: Line, curve: Curve, mesh: Mesh) -> Geometry:
+    """Return the geometry inputs unchanged.
+
+    Parameters
+    ----------
+    point : Point
+        A point.
+    vector : Vector
+        A vector.
+    plane : Plane
+        A plane.
+    line : Line
+        A line.
+    curve : Curve
+        A curve.
+    mesh : Mesh
+        A mesh.
+
+    Returns
+    -------
+    point : Point
+        The point.
+    vector : Vector
+        The vector.
+    plane : Plane
+        The plane.
+    line : Line
+        The line.
+    curve : Curve
+        The curve.
+    mesh : Mesh
+        The mesh.
+    """
+    return Geometry(point, vector, plane, line, curve, mesh)
+
+
+class Lists(NamedTuple):
+    numbers: Numbers
+    integers: Integers
+    texts: Texts
+    points: Points
+    vectors: Vectors
+    lines: Lines
+    curves: Curves
+    meshes: Meshes
+    count: int
+
+
+def lists(numbers: Numbers, integers: Integers | None = None, texts: Texts | None = None,
+          points: Points | None = None, vectors: Vectors | None = None, lines: Lines | None = None,
+          curves: Curves | None = None, meshes: Meshes | None = None) -> Lists:
+    """Return list inputs unchanged and the number of numbers.
+
+    Parameters
+    ----------
+    numbers : Numbers
+        Numbers.
+    integers : Integers
+        Integers.
+    texts : Texts
+        Texts.
+    points : Points
+        Points.
+    vectors : Vectors
+        Vectors.
+    lines : Lines
+        Lines.
+    curves : Curves
+        Curves.
+    meshes : Meshes
+        Meshes.
+
+    Returns
+    -------
+    numbers : Numbers
+        The numbers.
+    integers : Integers
+        The integers.
+    texts : Texts
+        The texts.
+    points : Points
+        The points.
+    vectors : Vectors
+        The vectors.
+    lines : Lines
+        The lines.
+    curves : Curves
+        The curves.
+    meshes : Meshes
+        The meshes.
+    count : int
+        How many numbers.
+    """
+    return Lists(numbers, integers, texts, points, vectors, lines, curves, meshes, len(numbers))
+
+
+class SurfaceInfo(NamedTuple):
+    degree_u: int
+    degree_v: int
+    corner: Point
+
+
+def surface_info(surface: NurbsSurface) -> SurfaceInfo:
+    """Degrees and first control point of a NURBS surface.
+
+    Parameters
+    ----------
+    surface : NurbsSurface
+        A surface.
+
+    Returns
+    -------
+    degree_u : int
+        Degree in u.
+    degree_v : int
+        Degree in v.
+    corner : Point
+        First control point.
+    """
+    return SurfaceInfo(surface.degree_u, surface.degree_v, surface.points[0, 0])
+
+
+class TreeSum(NamedTuple):
+    sums: Numbers
+    paths: Texts
+
+
+def tree_sum(tree: Tree[float]) -> TreeSum:
+    """Sum every branch of a tree.
+
+    Parameters
+    ----------
+    tree : Tree[float]
+        Numbers in branches.
+
+    Returns
+    -------
+    sums : Numbers
+        One sum per branch, in path order.
+    paths : Texts
+        The branch paths.
+    """
+    keys = sorted(tree)
+    return TreeSum(np.array([sum(tree[k]) for k in keys]), [";".join(map(str, k)) for k in keys])
+
+
+class Scaled(NamedTuple):
+    value: float
+    doubled: Numbers
+    warnings: list
+
+
+def scale(x: float, factor: float = 2.0, absolute_tolerance: float = 0.01, model_units: str = "") -> Scaled:
+    """Multiply a number, with the document tolerance as a warning.
+
+    Parameters
+    ----------
+    x : float
+        Value.
+    factor : float
+        Multiplier; must not be negative.
+
+    Returns
+    -------
+    value : float
+        ``x * factor``.
+    doubled : Numbers
+        ``[x, x * factor]``.
+    """
+    if factor < 0:
+        raise InputError("factor", f"must not be negative, got {factor}")
+    if x == 13:
+        raise RuntimeError("unlucky\nsecond line of the message")
+    if x == 99:
+        return Scaled(float("nan"), np.array([x]), [])
+    return Scaled(x * factor, np.array([x, x * factor]),
+                  [f"tolerance {absolute_tolerance} {model_units}".strip()])
