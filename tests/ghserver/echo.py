@@ -231,3 +231,62 @@ def scale(x: float, factor: float = 2.0, absolute_tolerance: float = 0.01, model
         return Scaled(float("nan"), np.array([x]), [])
     return Scaled(x * factor, np.array([x, x * factor]),
                   [f"tolerance {absolute_tolerance} {model_units}".strip()])
+
+
+class FooResult(NamedTuple):
+    Result: Mesh
+    Area: float
+
+
+def foo(Mesh: Mesh, Distance: float = 1.0) -> FooResult:
+    """Offset a mesh and report its area.
+
+    The real Hops request in ``shared/data/hops/post_solve_request.json`` targets a component with exactly these
+    inputs (``Mesh``, ``Distance``) and outputs (``Result``, ``Area``).
+
+    Parameters
+    ----------
+    Mesh : Mesh
+        Mesh to offset.
+    Distance : float
+        Offset distance.
+
+    Returns
+    -------
+    Result : Mesh
+        The mesh moved by ``Distance`` along its average face normal.
+    Area : float
+        Area of the mesh.
+    """
+    from components.mesh import face_normals
+
+    V, F = Mesh
+    N = face_normals(V, F, unit=False)
+    n = N.sum(axis=0)
+    n = n / np.linalg.norm(n)
+    return FooResult((V + Distance * n, F), float(np.linalg.norm(N, axis=1).sum()))
+
+
+ECHO = [
+    ("echo/scalars", scalars),
+    ("echo/geometry", geometry),
+    ("echo/lists", lists),
+    ("echo/surface", surface_info),
+    ("echo/tree", tree_sum),
+    ("echo/scale", scale),
+    ("foo", foo),
+]
+
+
+def registry():
+    """A registry of the echo components (ranges on foo's Distance as in the real metadata)."""
+    from ghserver.registry import Registry, declare
+
+    comps = []
+    for uri, fn in ECHO:
+        kw = {}
+        if fn is foo:
+            kw = dict(nicknames={"Mesh": "M", "Distance": "D", "Result": "R", "Area": "A"},
+                      ranges={"Distance": (0.0, 100.0)})
+        comps.append(declare(fn, uri, **kw))
+    return Registry(comps)

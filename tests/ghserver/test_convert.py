@@ -1,0 +1,160 @@
+"""rhino3dm codec: exact mesh round trips, curves and surfaces both ways, real RhinoCommon payloads, garbage."""
+from __future__ import annotations
+
+import base64
+import json
+
+import numpy as np
+import pytest
+import rhino3dm
+
+from components.mesh import pad_faces, quad_grid
+from components.types import NurbsCurve, NurbsSurface
+from ghserver import convert
+from tests.ghserver.conftest import shared_json
+
+
+def test_mesh_round_trip_is_exact_at_large_coordinates():
+    rng = np.random.default_rng(0)
+    V = 5e4 + rng.random((500, 3)) * 10.0  # coordinates of 5e4 with fine detail
+    F = rng.integers(0, 500, (300, 4))
+    V2, F2 = convert.decode_mesh(convert.encode_mesh(V, F))
+    assert np.max(np.abs(V2 - V) / np.abs(V)) <= 1e-9
+    assert np.array_equal(V2, V)  # in fact bit-exact: double-precision vertices
+    assert np.array_equal(F2, F)
+
+
+def test_mesh_round_trip_through_rhino3dm_objects_is_exact():
+    rng = np.random.default_rng(1)
+    V = 5e4 * rng.standard_normal((50, 3))
+    F = rng.integers(0, 50, (40, 4))
+    mesh = convert.arrays_to_mesh(V, F)
+    V2, F2 = convert.mesh_to_arrays(rhino3dm.CommonObject.Decode(mesh.Encode()))
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+
+
+def test_triangles_are_stored_as_abcc_and_ngons_as_fans():
+    V = np.array([[0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0.5, 1.5, 0], [-0.5, 1, 0]], float)
+    F = pad_faces([[0, 1, 2], [0, 2, 3, 4]], k=4)
+    V2, F2 = convert.decode_mesh(convert.encode_mesh(V, F))
+    assert F2.tolist() == [[0, 1, 2, 2], [0, 2, 3, 4]]
+    F5 = pad_faces([[0, 1, 2, 3, 4]])
+    _, F3 = convert.decode_mesh(convert.encode_mesh(V, F5))
+    assert F3.tolist() == [[0, 1, 2, 2], [0, 2, 3, 3], [0, 3, 4, 4]]
+    T = np.array([[0, 1, 2]])
+    _, F4 = convert.decode_mesh(convert.encode_mesh(V, T))
+    assert F4.tolist() == [[0, 1, 2, 2]]
+
+
+def test_real_rhinocommon_mesh_decodes():
+    blob = shared_json("rc_mesh_v70.json")
+    assert blob["archive3dm"] == 70
+    V, F = convert.decode_mesh(blob)
+    assert V.shape == (10, 3) and F.shape == (6, 4)
+    ref = rhino3dm.CommonObject.Decode(blob)
+    assert np.array_equal(V, np.array([(p.X, p.Y, p.Z) for p in ref.Vertices.ToPoint3dArray()]))
+    assert F.tolist() == [list(ref.Faces[i]) for i in range(len(ref.Faces))]
+
+
+def test_real_solve_request_mesh_decodes():
+    body = shared_json("post_solve_request.json")
+    data = body["values"][0]["InnerTree"]["{0}"][0]["data"]
+    assert isinstance(data, str)
+    V, F = convert.decode_mesh(data)
+    ref = rhino3dm.CommonObject.Decode(json.loads(data))
+    assert len(V) == len(ref.Vertices) and len(F) == len(ref.Faces)
+    assert np.all(np.isfinite(V)) and F.min() >= 0 and F.max() < len(V)
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("not json", "not JSON"),
+    ("[1, 2]", "encoded Rhino object"),
+    ('{"version": 10000, "data": "AAAA"}', "lacks archive3dm"),
+    ('{"version": 10000, "archive3dm": "x", "opennurbs": 1, "data": "AAAA"}', "must be an integer"),
+    ('{"version": 10000, "archive3dm": 60, "opennurbs": 1, "data": 5}', "base64 string"),
+    ('{"version": 10000, "archive3dm": 60, "opennurbs": -1869833980, "data": "AAAAAAAAAAAA"}', "could not be decoded"),
+])
+def test_garbage_geometry_is_a_decode_error(bad, message):
+    with pytest.raises(convert.DecodeError, match=message):
+        convert.decode_mesh(bad)
+
+
+def test_truncated_and_flipped_mesh_data_never_crash():
+    V, Q = quad_grid(5, 5)
+    blob = json.loads(convert.encode_mesh(V, Q))
+    raw = base64.b64decode(blob["data"])
+    for cut in (1, 10, len(raw) // 2, len(raw) - 3):
+        bad = dict(blob, data=base64.b64encode(raw[:cut]).decode())
+        try:
+            V2, F2 = convert.decode_mesh(bad)
+        except convert.DecodeError:
+            continue
+        # openNURBS may still read an archive missing only its trailing bytes: then it must be exact
+        assert np.array_equal(V2, V) and np.array_equal(F2, Q)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        b = bytearray(raw)
+        i = int(rng.integers(0, len(b)))
+        b[i] ^= 0xFF
+        bad = dict(blob, data=base64.b64encode(bytes(b)).decode())
+        try:
+            V2, F2 = convert.decode_mesh(bad)
+        except convert.DecodeError:
+            continue
+        assert V2.shape[1] == 3 and F2.shape[1] == 4
+
+
+def test_curve_decoding_wrong_type_is_an_error():
+    V, Q = quad_grid(2, 2)
+    with pytest.raises(convert.DecodeError, match="expected a Curve"):
+        convert.decode_curve(convert.encode_mesh(V, Q))
+    with pytest.raises(convert.DecodeError, match="expected a Mesh"):
+        convert.decode_mesh(convert.encode_curve(np.array([[0, 0, 0], [1, 0, 0.0]])))
+
+
+def test_polyline_round_trip():
+    P = np.array([[0, 0, 0], [1, 2, 3], [4, 5, 6.5], [7, 8, 9]], float) * 1234.5678
+    out = convert.decode_curve(convert.encode_curve(P))
+    assert isinstance(out, np.ndarray) and np.array_equal(out, P)
+    line = rhino3dm.LineCurve(rhino3dm.Point3d(0, 0, 0), rhino3dm.Point3d(1, 2, 3))
+    assert np.array_equal(convert.decode_curve(json.dumps(line.Encode())), [[0, 0, 0], [1, 2, 3]])
+
+
+def test_rational_nurbs_curve_round_trip_and_evaluation():
+    # a quarter circle as a rational quadratic
+    w = np.array([1.0, np.sqrt(0.5), 1.0])
+    c = NurbsCurve(degree=2, points=np.array([[1.0, 0, 0], [1, 1, 0], [0, 1, 0]]), weights=w,
+                   knots=np.array([0.0, 0, 1, 1]))
+    rc = convert.value_to_curve(c)
+    mid = rc.PointAt(0.5)
+    assert abs(np.hypot(mid.X, mid.Y) - 1.0) < 1e-12  # on the unit circle: weights were honoured
+    back = convert.decode_curve(convert.encode_curve(c))
+    assert isinstance(back, NurbsCurve) and back.degree == 2
+    assert np.allclose(back.points, c.points, atol=1e-15) and np.allclose(back.weights, w)
+    assert np.array_equal(back.knots, c.knots)
+
+
+def test_polycurve_becomes_nurbs():
+    pc = rhino3dm.PolyCurve()
+    pc.Append(rhino3dm.LineCurve(rhino3dm.Point3d(0, 0, 0), rhino3dm.Point3d(1, 0, 0)))
+    pc.Append(rhino3dm.LineCurve(rhino3dm.Point3d(1, 0, 0), rhino3dm.Point3d(1, 2, 0)))
+    value = convert.decode_curve(json.dumps(pc.Encode()))
+    assert isinstance(value, NurbsCurve) and value.degree == 1
+    assert np.allclose(value.points, [[0, 0, 0], [1, 0, 0], [1, 2, 0]])
+
+
+def test_surface_round_trip_matches_rhino3dm():
+    rng = np.random.default_rng(5)
+    P = np.zeros((4, 5, 3))
+    P[..., 0], P[..., 1] = np.meshgrid(np.arange(4.0), np.arange(5.0), indexing="ij")
+    P[..., 2] = rng.random((4, 5))
+    W = 0.5 + rng.random((4, 5))
+    s = NurbsSurface(3, 2, P, W, np.array([0, 0, 0, 1, 1, 1.0]), np.array([0, 0, 1, 2, 3, 3.0]))
+    rs = convert.value_to_surface(s)
+    back = convert.decode_surface(json.dumps(rs.Encode()))
+    assert (back.degree_u, back.degree_v) == (3, 2)
+    assert np.allclose(back.points, P, atol=1e-14) and np.allclose(back.weights, W, atol=1e-15)
+    assert np.array_equal(back.knots_u, s.knots_u) and np.array_equal(back.knots_v, s.knots_v)
+    brep = rhino3dm.Brep.CreateFromSurface(rs)
+    from_brep = convert.decode_surface(json.dumps(brep.Encode()))
+    assert np.allclose(from_brep.points, P, atol=1e-12)
