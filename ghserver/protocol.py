@@ -292,9 +292,10 @@ def run(component: Component, req: SolveRequest) -> dict:
                     warnings.append(str(w))
         for k, p in enumerate(component.outputs):
             value = fields[p.name]
+            if value is None:  # nothing to send for this output (an empty tree)
+                continue
             try:
-                items = [] if value is None else [P.encode_item(p.kind, v)
-                                                  for v in P.output_items(p.kind, p.access, value)]
+                items = [P.encode_item(p.kind, v) for v in P.output_items(p.kind, p.access, value)]
             except P.OutputError as exc:
                 raise P.OutputError(f"output {p.name!r} of {component.uri}: {exc}") from None
             if n_iter > 1 and p.access != "item":
