@@ -601,6 +601,94 @@ def _march(c, T, P, chord, steps, t_end):
     return ts, float(np.linalg.norm(end - p)) - chord
 
 
+def _chords_equal(c: CurveData, t: np.ndarray, rtol: float = 1e-12) -> bool:
+    if not np.all(np.diff(t) > 0):
+        return False
+    ch = np.linalg.norm(np.diff(_eval(c, t), axis=0), axis=1)
+    return bool(np.ptp(ch) <= rtol * ch.mean())
+
+
+def _equal_chords_newton(c: CurveData, t_init: np.ndarray, iterations: int = 60) -> np.ndarray | None:
+    """Newton's method on ``|C(t_{k+1}) - C(t_k)| = chord`` (unknowns: inner parameters and the chord).
+
+    Starts from equal arc length; returns the parameters (ends included) or None when it does not converge.
+    """
+    from scipy.sparse import csc_matrix
+    from scipy.sparse.linalg import spsolve
+
+    t = np.array(t_init, dtype=np.float64)
+    n = len(t) - 1  # number of chords = number of unknowns (n - 1 inner parameters + chord)
+    ch = float(np.mean(np.linalg.norm(np.diff(_eval(c, t), axis=0), axis=1)))
+    rows = np.arange(n)
+
+    def residual(tt, cc):
+        return np.linalg.norm(np.diff(_eval(c, tt), axis=0), axis=1) - cc
+
+    F = residual(t, ch)
+    scale = float(np.max(np.abs(c.points)))
+    for _ in range(iterations):
+        if np.max(np.abs(F)) <= 1e-14 * ch + 1e-15 * scale:
+            return t
+        C, D = _eval_d1(c, t)
+        R = np.diff(C, axis=0)
+        U = R / np.linalg.norm(R, axis=1)[:, None]
+        d_next = np.einsum("ij,ij->i", U, D[1:])  # dF_k / dt_{k+1}
+        d_prev = -np.einsum("ij,ij->i", U, D[:-1])  # dF_k / dt_k
+        r_ = np.concatenate([rows[:-1], rows[1:], rows])
+        c_ = np.concatenate([rows[:-1], rows[1:] - 1, np.full(n, n - 1)])
+        v_ = np.concatenate([d_next[:-1], d_prev[1:], -np.ones(n)])
+        J = csc_matrix((v_, (r_, c_)), shape=(n, n))
+        with np.errstate(all="ignore"):
+            dx = spsolve(J, -F)
+        if not np.all(np.isfinite(dx)):
+            return None
+        step, norm0 = 1.0, np.linalg.norm(F)
+        while step > 1e-6:
+            tn = t.copy()
+            tn[1:-1] += step * dx[:-1]
+            cn = ch + step * dx[-1]
+            if cn > 0 and np.all(np.diff(tn) > 0):
+                Fn = residual(tn, cn)
+                if np.linalg.norm(Fn) < norm0:
+                    break
+            step *= 0.5
+        else:  # no more progress: accept if already equal to well within the promise
+            break
+        t, ch, F = tn, cn, Fn
+    return t if np.max(np.abs(F)) <= 1e-12 * ch else None
+
+
+def _equal_chords_shooting(c: CurveData, count: int, length: float) -> np.ndarray | None:
+    """Fallback: march at a trial chord and adjust it (Brent) until the closing chord matches."""
+    from scipy.optimize import brentq
+
+    t0, t1 = c.domain
+    T, P = _dense(c)
+    steps = count - 1
+    hi = length / count
+
+    def g(ch):
+        return _march(c, T, P, ch, steps, t1)[1]
+
+    g_hi = g(hi)
+    if g_hi > 0:  # chords can only be shorter than arcs; numerical slack
+        hi *= 1 + 1e-9
+        g_hi = g(hi)
+    lo = None
+    for f in (0.999, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.01):
+        if g(hi * f) > 0:
+            lo = hi * f
+            break
+    if lo is None or g_hi > 0:
+        return None
+    chord = brentq(g, lo, hi, xtol=1e-15 * hi, rtol=1e-15, maxiter=200)
+    ts, _ = _march(c, T, P, chord, steps, t1)
+    if len(ts) != count:
+        return None
+    t = np.array(ts + [t1], dtype=np.float64)
+    return t if _chords_equal(c, t) else None
+
+
 def equal_chord_points(curve, count: int = 10, name: str = "curve") -> CurveSamples:
     """Divide a curve into ``count`` segments whose chords all have the same length.
 
@@ -625,10 +713,12 @@ def equal_chord_points(curve, count: int = 10, name: str = "curve") -> CurveSamp
 
     Notes
     -----
-    Shooting method: for a trial chord ``c`` the points are placed one after another at the first curve point
-    at distance ``c`` from the previous one; Brent's method adjusts ``c`` until the closing chord (to the
-    curve's end) has the same length. Each point is found by safeguarded Newton steps on ``|C(t) - p| = c``.
-    This gives translation surfaces with equal translation steps (Glymph et al. 2004).
+    Newton's method on the ``count`` equations ``|C(t_{k+1}) - C(t_k)| = c`` (unknowns: the inner parameters
+    and ``c``; a sparse bidiagonal-plus-column Jacobian), started from equal arc length and damped to keep the
+    parameters increasing. If it fails (kinks of a polyline can stall it), a shooting method takes over: for a
+    trial chord the points are placed one after another at the first curve point at distance ``c`` from the
+    previous one, and Brent's method adjusts ``c`` until the closing chord has the same length. This gives
+    translation surfaces with equal translation steps (Glymph et al. 2004).
 
     Example
     -------
@@ -636,8 +726,6 @@ def equal_chord_points(curve, count: int = 10, name: str = "curve") -> CurveSamp
     >>> np.round(np.linalg.norm(np.diff(s.points, axis=0), axis=1), 12).tolist()
     [3.125, 3.125]
     """
-    from scipy.optimize import brentq
-
     c = curve if isinstance(curve, CurveData) else as_curve(curve, name)
     count = _check_count(count, "count")
     t0, t1 = c.domain
@@ -647,30 +735,16 @@ def equal_chord_points(curve, count: int = 10, name: str = "curve") -> CurveSamp
         return CurveSamples(P, np.array([t0, t1]), False)
     if c.closed and count < 3:
         raise InputError("count", f"a closed curve needs at least 3 chords, got {count}")
-    T, P = _dense(c)
-    L = curve_length(c)
-    steps = count - 1
-    hi = L / count
-
-    def g(ch):
-        return _march(c, T, P, ch, steps, t1)[1]
-
-    g_hi = g(hi)
-    if g_hi > 0:  # chords can only be shorter than arcs; numerical slack
-        hi *= 1 + 1e-9
-        g_hi = g(hi)
-    lo = None
-    for f in (0.999, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.01):
-        if g(hi * f) > 0:
-            lo = hi * f
-            break
-    if lo is None or g_hi > 0:
+    tab = _length_table(c)
+    t_arc = _arclength_parameters(c, tab.S[-1] * np.arange(count + 1) / count, tab)
+    t_arc[0], t_arc[-1] = t0, t1
+    t = _equal_chords_newton(c, t_arc)
+    if t is None:
+        t = _equal_chords_shooting(c, count, tab.S[-1])
+    if t is None:
         raise InputError(name, f"no division into {count} equal chords was found (the curve folds back?)")
-    chord = brentq(g, lo, hi, xtol=1e-15 * hi, rtol=1e-15, maxiter=200)
-    ts, _ = _march(c, T, P, chord, steps, t1)
-    if len(ts) != count:
-        raise InputError(name, f"no division into {count} equal chords was found (the curve folds back?)")
-    t = np.array(ts if c.closed else ts + [t1], dtype=np.float64)
+    if c.closed:
+        t = t[:-1]
     pts = _eval(c, t)
     _check_distinct(pts, c.closed, name)
     return CurveSamples(pts, t, c.closed)
