@@ -1,0 +1,154 @@
+"""Benchmark: numpy openNURBS mesh codec (``ghserver._onmesh``) against rhino3dm.
+
+Run ``python benchmarks/codec.py``.  For a wavy quad grid and a random
+triangle soup of about 10k and 100k vertices it prints the median time of:
+
+* ``Encode`` / ``Decode``: rhino3dm's own ``Mesh.Encode()`` and
+  ``CommonObject.Decode()`` calls (C++),
+* ``slow write``: the pure rhino3dm path, a Python loop building the Mesh
+  (``AddPoint3d``/``AddFace``) plus ``Encode`` plus ``json.dumps``,
+* ``slow read``: ``json.loads`` plus ``Decode`` plus reading the vertices and
+  faces back through rhino3dm objects,
+* ``ours write``: ``write_mesh`` plus ``json.dumps``,
+* ``ours read``: ``json.loads`` plus ``read_mesh``,
+
+and the ratios *overhead beyond rhino3dm's call / rhino3dm's call*: for the
+slow path the Python loops and JSON (``slow - Encode``, ``slow - Decode``);
+for our path everything it does (it makes no rhino3dm call), divided by
+rhino3dm's ``Encode`` or ``Decode`` time respectively.
+"""
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import rhino3dm
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from ghserver._onmesh import read_mesh, write_mesh  # noqa: E402
+
+REPEATS = 9
+SLOW_REPEATS = 3
+
+
+def wavy_grid(n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Quad grid of about ``n_vertices`` vertices on a wavy surface, coordinates ~5e4."""
+    k = int(round(np.sqrt(n_vertices)))
+    u, v = np.meshgrid(np.linspace(0.0, 1.0, k), np.linspace(0.0, 1.0, k), indexing="ij")
+    V = np.stack([5e4 + 1e3 * u, 5e4 + 1e3 * v, 20.0 * np.sin(7 * u) * np.cos(5 * v)], axis=-1).reshape(-1, 3)
+    idx = np.arange(k * k).reshape(k, k)
+    F = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]], axis=-1).reshape(-1, 4)
+    return V, F
+
+
+def triangle_soup(n_vertices: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Random triangles, each with its own three random vertices (shuffled order)."""
+    rng = np.random.default_rng(seed)
+    m = n_vertices // 3
+    V = rng.uniform(-5e4, 5e4, size=(3 * m, 3))
+    T = rng.permutation(3 * m).reshape(m, 3)
+    return V, np.concatenate([T, T[:, 2:3]], axis=1)
+
+
+def build_slow(V: np.ndarray, F: np.ndarray) -> rhino3dm.Mesh:
+    """rhino3dm Mesh built vertex by vertex (double precision)."""
+    mesh = rhino3dm.Mesh()
+    mesh.Vertices.UseDoublePrecisionVertices = True
+    add = mesh.Vertices.AddPoint3d
+    for x, y, z in V.tolist():
+        add(x, y, z)
+    addf = mesh.Faces.AddFace
+    for a, b, c, d in F.tolist():
+        addf(a, b, c, d)
+    return mesh
+
+
+def read_slow(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces read back through rhino3dm objects."""
+    V = np.array([(p.X, p.Y, p.Z) for p in mesh.Vertices.ToPoint3dArray()], dtype=np.float64)
+    faces = mesh.Faces
+    F = np.array([faces[i] for i in range(len(faces))], dtype=np.int64)
+    return V, F
+
+
+def median_times(fns: dict, repeats: int) -> dict:
+    """Median wall time of each callable; runs are interleaved so that load
+    from other processes affects every entry alike."""
+    times: dict = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t0)
+    return {name: statistics.median(ts) for name, ts in times.items()}
+
+
+def bench(name: str, V: np.ndarray, F: np.ndarray) -> dict:
+    mesh = build_slow(V, F)
+    encoded = mesh.Encode()
+    text_rh = json.dumps(encoded)
+    ours = write_mesh(V, F)
+    text_ours = json.dumps(ours)
+
+    # correctness guard: both paths agree exactly
+    Vr, Fr = read_slow(rhino3dm.CommonObject.Decode(ours))
+    Vo, Fo = read_mesh(json.loads(text_rh))
+    assert np.array_equal(Vr, V) and np.array_equal(Fr, F)
+    assert np.array_equal(Vo, V) and np.array_equal(Fo, F)
+
+    row = {"name": name, "nv": len(V), "nf": len(F)}
+    row.update(median_times({
+        "encode": mesh.Encode,
+        "decode": lambda: rhino3dm.CommonObject.Decode(encoded),
+        "ours_write": lambda: json.dumps(write_mesh(V, F)),
+        "ours_read": lambda: read_mesh(json.loads(text_ours)),
+        "ours_read_rh": lambda: read_mesh(json.loads(text_rh)),
+        "ours_write_z1": lambda: json.dumps(write_mesh(V, F, compress_level=1)),
+    }, REPEATS))
+    row.update(median_times({
+        "slow_write": lambda: json.dumps(build_slow(V, F).Encode()),
+        "slow_read": lambda: read_slow(rhino3dm.CommonObject.Decode(json.loads(text_rh))),
+    }, SLOW_REPEATS))
+    row["kb_rh"] = len(text_rh) / 1024
+    row["kb_ours"] = len(text_ours) / 1024
+    return row
+
+
+def main() -> None:
+    rows = []
+    for n in (10_000, 100_000):
+        rows.append(bench("wavy quad grid", *wavy_grid(n)))
+        rows.append(bench("triangle soup", *triangle_soup(n)))
+    ms = 1e3
+    print(f"median of {REPEATS} interleaved runs (slow paths: {SLOW_REPEATS}), times in ms\n")
+    head = (f"{'mesh':<15} {'verts':>6} {'faces':>6} | {'Encode':>6} {'Decode':>6} | {'slow wr':>7} {'slow rd':>7} | "
+            f"{'ours wr':>7} {'ours rd':>7} {'rd(rh)':>6} {'wr z1':>6} | {'slow/Enc':>8} {'slow/Dec':>8} | "
+            f"{'wr/Enc':>6} {'rd/Dec':>6} {'rd(rh)/Dec':>10} | {'KB rh':>5} {'KB ours':>7}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        enc, dec = r["encode"], r["decode"]
+        print(f"{r['name']:<15} {r['nv']:>6} {r['nf']:>6} | {enc * ms:6.1f} {dec * ms:6.1f} | "
+              f"{r['slow_write'] * ms:7.1f} {r['slow_read'] * ms:7.1f} | {r['ours_write'] * ms:7.1f} "
+              f"{r['ours_read'] * ms:7.1f} {r['ours_read_rh'] * ms:6.1f} {r['ours_write_z1'] * ms:6.1f} | "
+              f"{(r['slow_write'] - enc) / enc:8.2f} {(r['slow_read'] - dec) / dec:8.2f} | "
+              f"{r['ours_write'] / enc:6.3f} {r['ours_read'] / dec:6.3f} {r['ours_read_rh'] / dec:10.3f} | "
+              f"{r['kb_rh']:5.0f} {r['kb_ours']:7.0f}")
+    print("""
+Encode/Decode   rhino3dm's own Mesh.Encode() / CommonObject.Decode() calls
+slow wr/rd      pure rhino3dm: Python loop building the Mesh + Encode + json.dumps /
+                json.loads + Decode + Python loop reading vertices and faces
+ours wr/rd      write_mesh (uncompressed buffers) + json.dumps / json.loads + read_mesh of that output
+rd(rh)          json.loads + read_mesh of rhino3dm's compressed output (what Rhino/Hops sends)
+wr z1           write_mesh(compress_level=1) + json.dumps, for comparison
+slow/Enc, /Dec  overhead of the slow path beyond rhino3dm's call, relative to that call
+wr/Enc, rd/Dec  our whole path (it makes no rhino3dm call, JSON included) relative to rhino3dm's call""")
+
+
+if __name__ == "__main__":
+    main()

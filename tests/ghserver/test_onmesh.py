@@ -1,0 +1,439 @@
+"""Round trips of the numpy openNURBS mesh codec (ghserver._onmesh) against rhino3dm itself."""
+from __future__ import annotations
+
+import base64
+import json
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+rhino3dm = pytest.importorskip("rhino3dm")
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from ghserver._onmesh import _check_double_vertices, _Invalid, read_mesh, write_mesh  # noqa: E402
+
+SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+
+
+# ----------------------------------------------------------------------------------------------
+# helpers
+
+
+def rh_view(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces exactly as rhino3dm reports them."""
+    V = np.array([(p.X, p.Y, p.Z) for p in mesh.Vertices.ToPoint3dArray()], dtype=np.float64).reshape(-1, 3)
+    faces = mesh.Faces
+    F = np.array([tuple(faces[i]) for i in range(len(faces))], dtype=np.int64).reshape(-1, 4)
+    return V, F
+
+
+def rh_mesh(V, F, *, double: bool = True):
+    """A rhino3dm Mesh built vertex by vertex (double precision or float-only)."""
+    mesh = rhino3dm.Mesh()
+    mesh.Vertices.UseDoublePrecisionVertices = double
+    for x, y, z in np.asarray(V, dtype=float).tolist():
+        if double:
+            mesh.Vertices.AddPoint3d(x, y, z)
+        else:
+            mesh.Vertices.Add(x, y, z)
+    for face in np.asarray(F).tolist():
+        if face[2] == face[3]:
+            mesh.Faces.AddFace(face[0], face[1], face[2])
+        else:
+            mesh.Faces.AddFace(*face)
+    return mesh
+
+
+def decode(obj) -> tuple[np.ndarray, np.ndarray]:
+    mesh = rhino3dm.CommonObject.Decode(obj)
+    assert isinstance(mesh, rhino3dm.Mesh)
+    return rh_view(mesh)
+
+
+def assert_same(got, expected) -> None:
+    assert got is not None
+    V, F = got
+    Ve, Fe = expected
+    assert V.dtype == np.float64 and V.shape == Ve.shape
+    assert F.dtype == np.int64 and F.shape == Fe.shape
+    np.testing.assert_array_equal(V, Ve)
+    np.testing.assert_array_equal(F, Fe)
+
+
+def grid(nu: int, nv: int, offset: float = 5e4) -> tuple[np.ndarray, np.ndarray]:
+    """Wavy quad grid with coordinates around ``offset`` (double precision matters)."""
+    u, v = np.meshgrid(np.linspace(0, 1, nu), np.linspace(0, 1, nv), indexing="ij")
+    V = np.stack([offset + 123.456789 * u, offset + 98.7654321 * v, np.sin(5 * u) * np.cos(3 * v) / 3],
+                 axis=-1).reshape(-1, 3)
+    idx = np.arange(nu * nv).reshape(nu, nv)
+    F = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]], axis=-1).reshape(-1, 4)
+    return V, F
+
+
+def soup(n_tri: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    V = rng.uniform(-5e4, 5e4, size=(3 * n_tri, 3)) + rng.uniform(-1, 1, size=(3 * n_tri, 3)) * 1e-7
+    T = rng.permutation(3 * n_tri).reshape(n_tri, 3)
+    return V, np.concatenate([T, T[:, 2:3]], axis=1)
+
+
+def mixed(n: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Quad grid with every third quad split into two triangles."""
+    V, Q = grid(n, n)
+    rng = np.random.default_rng(seed)
+    faces = []
+    for k, q in enumerate(Q.tolist()):
+        if k % 3 == 0:
+            faces += [[q[0], q[1], q[2], q[2]], [q[0], q[2], q[3], q[3]]]
+        else:
+            faces.append(q)
+    F = np.array(faces, dtype=np.int64)
+    return V, F[rng.permutation(len(F))]
+
+
+def payload(obj: dict) -> bytes:
+    return base64.b64decode(obj["data"])
+
+
+def with_payload(obj: dict, data: bytes) -> dict:
+    return {**obj, "data": base64.b64encode(data).decode("ascii")}
+
+
+CASES = {
+    "one triangle": (np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2, 2]])),
+    "one quad": (np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), np.array([[0, 1, 2, 3]])),
+    "grid 6x5 (uint8 indices)": grid(6, 5),
+    "grid 16x16 (256 vertices, uint16 indices)": grid(16, 16),
+    "mixed 30x30": mixed(30),
+    "soup 200": soup(200),
+    "grid 256x257 (65792 vertices, int32 indices)": grid(256, 257),
+}
+
+
+# ----------------------------------------------------------------------------------------------
+# read_mesh on rhino3dm's own encoding
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_read_rhino3dm_double_precision(name):
+    V, F = CASES[name]
+    mesh = rh_mesh(V, F)
+    expected = rh_view(mesh)
+    np.testing.assert_array_equal(expected[0], V)  # rhino3dm keeps the doubles exactly
+    assert_same(read_mesh(mesh.Encode()), expected)
+
+
+@pytest.mark.parametrize("name", ["one quad", "grid 6x5 (uint8 indices)", "mixed 30x30", "soup 200"])
+def test_read_rhino3dm_float_only(name):
+    V, F = CASES[name]
+    mesh = rh_mesh(V, F, double=False)
+    expected = rh_view(mesh)
+    got = read_mesh(mesh.Encode())
+    assert_same(got, expected)
+    np.testing.assert_array_equal(got[0], V.astype(np.float32).astype(np.float64))
+
+
+def test_read_rhino3dm_100k_compressed():
+    V, F = grid(317, 317)  # 100489 vertices
+    mesh = rh_mesh(V, F)
+    obj = mesh.Encode()
+    data = payload(obj)
+    assert len(data) < 0.8 * (V.nbytes * 1.5 + F.shape[0] * 16)  # rhino3dm compressed the buffers
+    assert_same(read_mesh(json.loads(json.dumps(obj))), (V, F))
+
+
+def test_read_empty_mesh():
+    got = read_mesh(rhino3dm.Mesh().Encode())
+    assert got is not None
+    assert got[0].shape == (0, 3) and got[1].shape == (0, 4)
+
+
+def test_read_returns_writable_arrays():
+    V, F = read_mesh(write_mesh(*CASES["soup 200"]))
+    V[0, 0] += 1.0
+    F[0, 0] += 1
+
+
+# ----------------------------------------------------------------------------------------------
+# write_mesh read back by rhino3dm
+
+
+@pytest.mark.parametrize("level", [None, 1, 9])
+@pytest.mark.parametrize("name", list(CASES))
+def test_write_decoded_by_rhino3dm(name, level):
+    V, F = CASES[name]
+    obj = write_mesh(V, F, compress_level=level)
+    assert set(obj) == {"version", "archive3dm", "opennurbs", "data"}
+    assert obj["archive3dm"] == 60
+    mesh = rhino3dm.CommonObject.Decode(json.loads(json.dumps(obj)))
+    assert isinstance(mesh, rhino3dm.Mesh)
+    assert mesh.IsValid
+    assert_same(rh_view(mesh), (V, F))
+    # the single precision copy is the rounded double, as openNURBS keeps it
+    fpts = mesh.Vertices.ToPoint3fArray()
+    np.testing.assert_array_equal(np.array([(p.X, p.Y, p.Z) for p in fpts], dtype=np.float32),
+                                  V.astype(np.float32))
+    # rhino3dm re-encodes it consistently, and we read that back
+    again = mesh.Encode()
+    assert_same(read_mesh(again), (V, F))
+    assert_same(read_mesh(obj), (V, F))
+    bbox = mesh.GetBoundingBox()
+    np.testing.assert_array_equal([bbox.Min.X, bbox.Min.Y, bbox.Min.Z], V.min(axis=0))
+    np.testing.assert_array_equal([bbox.Max.X, bbox.Max.Y, bbox.Max.Z], V.max(axis=0))
+
+
+@pytest.mark.parametrize("name", ["one triangle", "one quad", "grid 6x5 (uint8 indices)", "soup 200"])
+def test_write_matches_rhino3dm_bytes(name):
+    """With rhino3dm's compression level the archive is byte for byte what rhino3dm writes."""
+    V, F = CASES[name]
+    expected = rh_mesh(V, F).Encode()
+    assert write_mesh(V, F, compress_level=9) == expected
+
+
+def test_write_empty_matches_rhino3dm():
+    assert write_mesh(np.zeros((0, 3)), np.zeros((0, 4), dtype=int), compress_level=9) == rhino3dm.Mesh().Encode()
+
+
+def test_write_100k_roundtrip_exact():
+    rng = np.random.default_rng(7)
+    V, F = grid(317, 317)
+    V = V + rng.uniform(-1, 1, V.shape) * 1e-6  # full 53-bit mantissas around 5e4
+    for level in (None, 6):
+        got = decode(write_mesh(V, F, compress_level=level))
+        assert_same(got, (V, F))
+        err = np.abs(got[0] - V).max() / np.abs(V).max()
+        assert err <= 1e-9
+
+
+def test_write_pads_triangles():
+    V, F = CASES["soup 200"]
+    assert write_mesh(V, F[:, :3]) == write_mesh(V, F)
+
+
+def test_uncompressed_is_larger_but_equivalent():
+    V, F = grid(40, 40)
+    raw, comp = write_mesh(V, F), write_mesh(V, F, compress_level=9)
+    assert len(raw["data"]) > len(comp["data"])
+    assert_same(read_mesh(raw), (V, F))
+    assert_same(read_mesh(comp), (V, F))
+
+
+@pytest.mark.parametrize(
+    "V, F",
+    [
+        (np.zeros((3, 2)), [[0, 1, 2, 2]]),
+        (np.zeros((3, 3)), [[0, 1]]),
+        (np.zeros((3, 3)), [[0, 1, 3, 3]]),
+        (np.zeros((3, 3)), [[0, -1, 2, 2]]),
+        (np.array([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]]), [[0, 1, 2, 2]]),
+        (np.array([[0, 0, 1e300], [1, 0, 0], [0, 1, 0]]), [[0, 1, 2, 2]]),
+        (np.zeros((3, 3)), [[0.0, 1.0, 2.0, 2.0]]),
+    ],
+)
+def test_write_rejects_bad_input(V, F):
+    with pytest.raises(ValueError):
+        write_mesh(V, np.asarray(F))
+
+
+# ----------------------------------------------------------------------------------------------
+# property test
+
+coord = st.floats(min_value=-1e7, max_value=1e7, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def random_meshes(draw):
+    n = draw(st.integers(min_value=3, max_value=300))
+    V = np.array(draw(st.lists(st.tuples(coord, coord, coord), min_size=n, max_size=n)), dtype=np.float64)
+    m = draw(st.integers(min_value=0, max_value=200))
+    seed = draw(st.integers(min_value=0, max_value=2**32 - 1))
+    rng = np.random.default_rng(seed)
+    F = np.empty((m, 4), dtype=np.int64)
+    for k in range(m):
+        F[k] = rng.choice(n, size=4, replace=False)
+        if rng.random() < 0.5:
+            F[k, 3] = F[k, 2]
+    return V, F
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(random_meshes(), st.sampled_from([None, 1, 9]))
+def test_property_roundtrip(mesh, level):
+    V, F = mesh
+    obj = write_mesh(V, F, compress_level=level)
+    assert_same(read_mesh(obj), (V, F))
+    rh = rhino3dm.CommonObject.Decode(obj)
+    assert_same(rh_view(rh), (V, F))
+    assert_same(read_mesh(rh.Encode()), (V, F))
+
+
+# ----------------------------------------------------------------------------------------------
+# extra mesh data: normals, colours, user data, n-gons
+
+
+def test_mesh_with_normals_and_colours():
+    V, F = grid(12, 9)
+    mesh = rh_mesh(V, F)
+    assert mesh.Normals.ComputeNormals()
+    for i in range(len(V)):
+        mesh.VertexColors.Add(i % 256, (3 * i) % 256, 7)
+    assert len(mesh.Normals) == len(V) and len(mesh.VertexColors) == len(V)
+    obj = mesh.Encode()
+    assert_same(read_mesh(obj), rh_view(rhino3dm.CommonObject.Decode(obj)))
+    assert_same(read_mesh(obj), (V, F))
+
+
+def test_mesh_with_explicit_normals_small():
+    V, F = CASES["one quad"]
+    mesh = rh_mesh(V, F)
+    for _ in range(4):
+        mesh.Normals.Add(0.0, 0.0, 1.0)
+    assert_same(read_mesh(mesh.Encode()), (V, F))
+
+
+def test_mesh_with_user_data_falls_back():
+    """User data (here a user string) is not parsed: the rhino3dm path applies."""
+    V, F = CASES["one quad"]
+    mesh = rh_mesh(V, F)
+    mesh.SetUserString("key", "value")
+    obj = mesh.Encode()
+    assert rhino3dm.CommonObject.Decode(obj).GetUserString("key") == "value"
+    assert read_mesh(obj) is None
+
+
+def _ngon_chunk(ngons: list[tuple[list[int], list[int]]]) -> bytes:
+    body = struct.pack("<iiI", 1, 0, len(ngons))
+    for vi, fi in ngons:
+        body += struct.pack(f"<II{len(vi)}I{len(fi)}I", len(vi), len(fi), *vi, *fi)
+    body += struct.pack("<I", zlib.crc32(body))
+    return struct.pack("<Iq", 0x40008000, len(body)) + body
+
+
+def test_mesh_with_ngons_is_read():
+    """An n-gon record (as RhinoCommon may send) does not change V/F: it is checked and skipped."""
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]])
+    F = np.array([[0, 1, 2, 3], [1, 4, 5, 2]])
+    obj = write_mesh(V, F)  # uncompressed, so the layout below is fixed
+    data = payload(obj)
+    start = 12 + 32 + 12  # CLASS header, UUID chunk, DATA header
+    (length,) = struct.unpack_from("<q", data, start - 8)
+    body = data[start:start + length - 4]
+    # tail of the mesh record: tag chunk (176), 3 flags, ngon flag, dV flag, dV chunk, bbox (48)
+    dv_len = 12 + 8 + 4 + 4 + 4 + 1 + 24 * len(V) + 4
+    dv_start = len(body) - 48 - dv_len
+    flag = dv_start - 2
+    tag_start = flag - 3 - 176
+    assert body[flag] == 0 and body[flag + 1] == 1
+    assert body[tag_start:tag_start + 4] == struct.pack("<I", 0x40008000)
+    new_body = body[:flag] + b"\x01" + _ngon_chunk([([0, 1, 4, 5, 2, 3], [0, 1])]) + body[flag + 1:]
+    # the record's CRC covers its own bytes only, not the nested chunks
+    direct = (body[:tag_start] + body[tag_start + 176:flag] + b"\x01"
+              + body[flag + 1:dv_start] + body[dv_start + dv_len:])
+    chunk = struct.pack("<Iq", 0x0002FFFC, len(new_body) + 4) + new_body + struct.pack("<I", zlib.crc32(direct))
+    inner = data[12:start - 12] + chunk + data[start + length:]
+    patched = with_payload(obj, struct.pack("<Iq", 0x00027FFA, len(inner)) + inner)
+
+    rh = rhino3dm.CommonObject.Decode(patched)
+    assert isinstance(rh, rhino3dm.Mesh)
+    assert_same(rh_view(rh), (V, F))
+    assert_same(read_mesh(patched), (V, F))
+
+
+# ----------------------------------------------------------------------------------------------
+# garbage, truncation, bit flips
+
+
+def test_garbage_inputs_return_none():
+    good = write_mesh(*CASES["one quad"])
+    bad = [
+        None, 42, "text", [], {}, {"data": good["data"]},
+        {**good, "version": 10001}, {**good, "archive3dm": 50}, {**good, "archive3dm": "60"},
+        {**good, "opennurbs": None}, {**good, "data": 123}, {**good, "data": "@@@@"},
+        {**good, "data": good["data"][:-4]}, {**good, "data": ""},
+        {**good, "data": base64.b64encode(b"\x00" * 64).decode()},
+        {**good, "data": base64.b64encode(np.random.default_rng(3).bytes(5000)).decode()},
+    ]
+    for obj in bad:
+        assert read_mesh(obj) is None
+
+
+def test_other_geometry_returns_none():
+    for geom in (rhino3dm.Point(rhino3dm.Point3d(1, 2, 3)),
+                 rhino3dm.LineCurve(rhino3dm.Point3d(0, 0, 0), rhino3dm.Point3d(1, 1, 1)),
+                 rhino3dm.Sphere(rhino3dm.Point3d(0, 0, 0), 2.0).ToBrep()):
+        assert read_mesh(geom.Encode()) is None
+
+
+@pytest.mark.parametrize("level", [None, 9])
+def test_truncated_returns_none(level):
+    obj = write_mesh(*grid(7, 7), compress_level=level)
+    data = payload(obj)
+    for k in range(len(data)):
+        assert read_mesh(with_payload(obj, data[:k])) is None
+    assert read_mesh(with_payload(obj, data + b"\x00")) is None
+
+
+def test_every_bit_flip_small_is_rejected():
+    obj = rh_mesh(*CASES["one quad"]).Encode()
+    data = bytearray(payload(obj))
+    for i in range(len(data)):
+        for bit in range(8):
+            data[i] ^= 1 << bit
+            assert read_mesh(with_payload(obj, bytes(data))) is None, (i, bit)
+            data[i] ^= 1 << bit
+    assert read_mesh(with_payload(obj, bytes(data))) is not None
+
+
+@pytest.mark.parametrize("level", [None, 9])
+def test_bit_flips_larger_mesh(level):
+    V, F = grid(20, 20)
+    obj = write_mesh(V, F, compress_level=level)
+    data = bytearray(payload(obj))
+    rng = np.random.default_rng(11)
+    for i in rng.choice(len(data), size=min(1500, len(data)), replace=False).tolist():
+        bit = int(rng.integers(8))
+        data[i] ^= 1 << bit
+        got = read_mesh(with_payload(obj, bytes(data)))
+        assert got is None, (i, bit)
+        data[i] ^= 1 << bit
+
+
+def test_inconsistent_double_and_float_vertices_rejected():
+    dV = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    _check_double_vertices(dV, dV.astype(np.float32))
+    _check_double_vertices(dV + 1e-9, dV.astype(np.float32))  # within openNURBS' 1e-6 tolerance
+    with pytest.raises(_Invalid):
+        _check_double_vertices(dV + 1e-3, dV.astype(np.float32))
+
+
+# ----------------------------------------------------------------------------------------------
+# real RhinoCommon (Hops) data, archive 70
+
+
+def _shared(relative: str) -> Path:
+    path = SHARED / relative
+    if not path.exists():
+        pytest.skip(f"shared data not available: {relative}")
+    return path
+
+
+def test_rhinocommon_mesh_v70():
+    obj = json.loads(_shared("hops/rc_mesh_v70.json").read_text())
+    assert obj["archive3dm"] == 70
+    expected = decode(obj)
+    got = read_mesh(obj)
+    # RhinoCommon's archive 70 mesh (with normals and double precision vertices) is fully parsed
+    assert_same(got, expected)
+    assert got[0].shape == (10, 3) and got[1].shape == (6, 4)
+
+
+def test_hops_post_solve_request_mesh():
+    request = json.loads(_shared("hops/post_solve_request.json").read_text())
+    item = request["values"][0]["InnerTree"]["{0}"][0]
+    assert item["type"] == "Rhino.Geometry.Mesh"
+    obj = json.loads(item["data"])
+    assert_same(read_mesh(obj), decode(obj))
