@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from components import surfaces
-from components.mesh import InputError, boundary_loops, validate_mesh
+from components.mesh import InputError, boundary_loops, read_mesh, validate_mesh, vertex_valence
 from components.surfaces import (
     _quad_planarity,
     grid_quads,
@@ -20,6 +20,7 @@ from components.surfaces import (
     translation_surface,
 )
 from components.types import NurbsCurve, NurbsSurface
+from tests.conftest import shared_file
 
 rhino3dm = pytest.importorskip("rhino3dm")
 
@@ -146,6 +147,26 @@ def test_translation_surface_of_two_lines_is_a_parallelogram_grid():
     V, Q = r.mesh
     assert np.allclose(V[:, 2], 0)
     assert r.face_count == 12 and r.max_planarity == 0.0
+
+
+@pytest.mark.parametrize("path", ["compas_cgal/rhinovault_mesh_0.ply", "compas_cgal/rhinovault_mesh_1.ply"])
+def test_translation_surface_from_real_vault_edges(path):
+    """Two boundary polylines of a real RhinoVAULT vault (a 10 × 10 quad grid, planarity 8e-2) meeting at a
+    corner give a translation surface with the same grid of 100 faces, planar to 1e-12."""
+    V0, F0 = read_mesh(shared_file("meshes/" + path))
+    loop = boundary_loops(F0)[0]
+    val = vertex_valence(F0, len(V0))
+    corners = [k for k, v in enumerate(loop) if val[v] == 2]
+    R = np.roll(loop, -corners[0])  # starts at a corner
+    nxt, prev = corners[1] - corners[0], corners[-1] - corners[0]
+    side1 = V0[R[: nxt + 1]]  # from the corner forward to the next corner
+    side0 = V0[np.concatenate([R[:1], R[prev:][::-1]])]  # from the corner backward to the previous one
+    r = translation_surface(side1, side0, sampling="control")
+    V, Q = r.mesh
+    assert r.face_count == len(F0) == (len(side1) - 1) * (len(side0) - 1)
+    assert r.max_planarity <= 1e-12 < _quad_planarity(V0, F0).max()
+    assert np.array_equal(V[: len(side1)], side1)
+    validate_mesh(V, Q, kind="quad")
 
 
 # ----------------------------------------------------------------------------------------------
