@@ -73,6 +73,9 @@ _JSON_VERSION = 10000
 #: Archive versions whose mesh record this module understands (V6, V7, V8).
 _READ_ARCHIVES = (60, 70, 80)
 _WRITE_ARCHIVE = 60
+#: ON_Mesh::Read only reads the mapping tag and later fields from archives
+#: written by openNURBS 200606010 or newer (as an unsigned 32-bit number).
+_MIN_OPENNURBS = 200606010
 #: openNURBS version number that rhino3dm 8.x puts in the ``"opennurbs"`` field.
 _WRITE_OPENNURBS = -1869833980
 
@@ -293,8 +296,10 @@ def _decode_payload(obj: dict) -> bytes:
         raise _Invalid(f"unsupported envelope version {version!r}")
     if type(archive) is not int or archive not in _READ_ARCHIVES:
         raise _Invalid(f"unsupported archive3dm {archive!r}")
-    if type(obj.get("opennurbs")) is not int:
-        raise _Invalid("missing opennurbs version")
+    opennurbs = obj.get("opennurbs")
+    if type(opennurbs) is not int or (opennurbs & 0xFFFFFFFF) < _MIN_OPENNURBS:
+        # older writers lack fields that ON_Mesh::Read only expects from newer ones
+        raise _Invalid(f"unsupported opennurbs version {opennurbs!r}")
     data = obj.get("data")
     if not isinstance(data, str):
         raise _Invalid("data is not a string")
@@ -467,13 +472,11 @@ def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
         r.begin(_TCODE_CLASS_DATA)
         V, F = _read_mesh_record(r)
         r.end()
-        typecode, value = r.begin()
+        typecode, value = r.begin()  # a short chunk is complete after begin()
         if typecode != _TCODE_CLASS_END or value != 0:
             # TCODE_OPENNURBS_CLASS_USERDATA or anything else: leave it to rhino3dm
             raise _Invalid(f"unsupported chunk 0x{typecode:08X} after mesh data")
-        r.end()
-        if r.pos != len(buf):
-            raise _Invalid("trailing bytes")
+        r.end()  # TCODE_OPENNURBS_CLASS, which spans the whole payload
         return V, F
     except _Invalid as exc:
         logger.debug("read_mesh: falling back (%s)", exc)
