@@ -1,0 +1,179 @@
+"""Pull to surface: every vertex on the reference, boundary on its boundary, idempotent, typed errors."""
+from __future__ import annotations
+
+import igl
+import numpy as np
+import pytest
+
+from components.mesh import (
+    InputError,
+    MeshError,
+    boundary_loops,
+    bounding_box_diagonal,
+    quad_grid,
+    read_mesh,
+    triangulate,
+)
+from components.pull import pull_to_surface, pulled_vertices, reference_boundary
+from components.subdivide import catmull_clark
+from tests.conftest import shared_file
+
+
+def _hypar_reference(n=40):
+    """Fine triangulated hyperbolic paraboloid z = x y / 2 over [-1, 1]²."""
+    V, Q = quad_grid(n, n, 2.0, 2.0)
+    V[:, :2] -= 1.0
+    V[:, 2] = 0.5 * V[:, 0] * V[:, 1]
+    return V, triangulate(Q)[0]
+
+
+def _coarse_over_hypar(levels=2):
+    """A coarse 3 × 3 net over the hypar, lifted off it, subdivided."""
+    V, Q = quad_grid(3, 3, 2.0, 2.0)
+    V[:, :2] -= 1.0
+    V[:, 2] = 0.5 * V[:, 0] * V[:, 1] + 0.05
+    V1, Q1, _ = catmull_clark(V, Q, levels=levels)
+    return V1, Q1
+
+
+def _distance_to_segments(P, A, B):
+    """Brute-force distance of every point to a set of segments (independent of components.proximity)."""
+    AB = B - A
+    t = np.einsum("pij,ij->pi", P[:, None, :] - A[None], AB) / np.einsum("ij,ij->i", AB, AB)
+    t = np.clip(t, 0, 1)
+    X = A[None] + t[..., None] * AB[None]
+    return np.linalg.norm(P[:, None, :] - X, axis=2).min(axis=1)
+
+
+def _boundary_distance(P, V_ref, T_ref):
+    A, B = [], []
+    for loop in boundary_loops(T_ref):
+        A.append(V_ref[loop])
+        B.append(V_ref[np.roll(loop, -1)])
+    return _distance_to_segments(P, np.concatenate(A), np.concatenate(B))
+
+
+def test_every_vertex_lands_on_surface_and_boundary_on_boundary():
+    Vr, Tr = _hypar_reference()
+    V, Q = _coarse_over_hypar()
+    res = pulled_vertices(V, Q, Vr, Tr)
+    diag = bounding_box_diagonal(Vr)
+    # independent check with libigl's AABB distance
+    sq, _, _ = igl.point_mesh_squared_distance(res.V, Vr, Tr)
+    assert np.sqrt(sq).max() <= 1e-9 * diag
+    assert res.distances_after.max() <= 1e-9 * diag
+    # the boundary vertices of the pulled mesh are the mesh's boundary loop, and they sit on the reference boundary
+    assert sorted(res.boundary_vertices.tolist()) == sorted(boundary_loops(Q)[0].tolist())
+    assert _boundary_distance(res.V[res.boundary_vertices], Vr, Tr).max() <= 1e-9 * diag
+    # interior: the move is the distance to the surface (the closest point, checked against libigl)
+    inner = np.setdiff1d(np.arange(len(V)), res.boundary_vertices)
+    sq0, _, _ = igl.point_mesh_squared_distance(V[inner], Vr, Tr)
+    np.testing.assert_allclose(res.distances_before[inner], np.sqrt(sq0), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(res.V - V, axis=1), res.distances_before, atol=1e-12)
+    assert len(res.flipped_faces) == 0 and res.warnings == []
+
+
+def test_pull_is_idempotent():
+    Vr, Tr = _hypar_reference()
+    V, Q = _coarse_over_hypar()
+    once = pulled_vertices(V, Q, Vr, Tr)
+    twice = pulled_vertices(once.V, Q, Vr, Tr)
+    diag = bounding_box_diagonal(Vr)
+    assert np.abs(twice.V - once.V).max() <= 1e-12 * diag
+    assert twice.distances_before.max() <= 1e-12 * diag
+
+
+def test_surface_and_fixed_modes():
+    Vr, Tr = _hypar_reference()
+    V, Q = _coarse_over_hypar()
+    surf = pulled_vertices(V, Q, Vr, Tr, boundary="surface")
+    assert len(surf.boundary_vertices) == 0
+    assert surf.distances_after.max() <= 1e-9 * bounding_box_diagonal(Vr)
+    fixed = pulled_vertices(V, Q, Vr, Tr, boundary="fixed")
+    b = fixed.boundary_vertices
+    np.testing.assert_array_equal(fixed.V[b], V[b])
+    assert np.all(fixed.distances_before[b] == 0)
+    assert np.all(fixed.distances_after[b] > 0.01)  # they were lifted 0.05 off the surface
+
+
+def test_polygon_reference_and_closed_reference_warning():
+    # a closed reference (subdivided cube, quads): boundary vertices of an open mesh go to the surface, with a warning
+    Vc = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], dtype=float)
+    Fc = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]])
+    Vs, Qs, _ = catmull_clark(Vc, Fc, levels=3)
+    assert reference_boundary(Vs, Qs) == []
+    V, Q = quad_grid(4, 4, 0.6, 0.6)
+    V += [0.2, 0.2, 1.2]  # above the top of the blob
+    res = pulled_vertices(V, Q, Vs, Qs)
+    assert res.warnings and "closed" in res.warnings[0]
+    T = triangulate(Qs)[0]
+    sq, _, _ = igl.point_mesh_squared_distance(res.V, Vs, T)
+    assert np.sqrt(sq).max() <= 1e-9 * bounding_box_diagonal(Vs)
+
+
+def test_flipped_faces_are_reported():
+    # outside the corner of a square, the closest-point map folds a triangle over (orientation reverses)
+    Vr, Qr = quad_grid(8, 8, 2.0, 2.0)
+    Tr = triangulate(Qr)[0]
+    V = np.array([[1.9, 3.0, 0.0], [3.0, 1.9, 0.0], [2.2, 2.2, 0.0]])
+    T = np.array([[0, 1, 2]])
+    res = pulled_vertices(V, T, Vr, Tr, boundary="surface")
+    np.testing.assert_allclose(res.V, [[1.9, 2, 0], [2, 1.9, 0], [2, 2, 0]], atol=1e-15)
+    assert res.flipped_faces.tolist() == [0]
+    assert "turned over" in res.warnings[0]
+
+
+def test_real_mesh_quad_remesh_onto_inspired_mesh():
+    Vr, Tr = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    Vq, Fq = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
+    V1, Q1, _ = catmull_clark(Vq, Fq, levels=1)
+    res = pulled_vertices(V1, Q1, Vr, Tr)
+    diag = bounding_box_diagonal(Vr)
+    sq, _, _ = igl.point_mesh_squared_distance(res.V, Vr, Tr)
+    assert np.sqrt(sq).max() <= 1e-9 * diag
+    assert _boundary_distance(res.V[res.boundary_vertices], Vr, Tr).max() <= 1e-9 * diag
+    again = pulled_vertices(res.V, Q1, Vr, Tr)
+    assert np.abs(again.V - res.V).max() <= 1e-12 * diag
+
+
+# ----------------------------------------------------------------------------------------------
+# published component and errors
+
+
+def test_published_component():
+    from ghserver.registry import declare
+
+    comp = declare(pull_to_surface, "subdivide/pull_to_surface")
+    assert [p.name for p in comp.inputs] == ["mesh", "surface", "boundary"]
+    assert [p.name for p in comp.outputs] == ["mesh", "distances_before", "distances_after", "max_before",
+                                              "mean_before", "max_after", "mean_after"]
+    Vr, Tr = _hypar_reference()
+    V, Q = _coarse_over_hypar(levels=1)
+    res = pull_to_surface((V, Q), (Vr, Tr))
+    Vp, Qp = res.mesh
+    np.testing.assert_array_equal(Qp, Q)
+    assert res.max_after <= 1e-9 * bounding_box_diagonal(Vr) and res.max_before > 0.01
+    assert res.mean_before == pytest.approx(res.distances_before.mean())
+    assert res.warnings == []
+
+
+def test_bad_inputs(nonmanifold_fan):
+    Vr, Tr = _hypar_reference(8)
+    V, Q = _coarse_over_hypar(levels=1)
+    with pytest.raises(InputError, match=r"^boundary: "):
+        pulled_vertices(V, Q, Vr, Tr, boundary="edge")
+    bad = Vr.copy()
+    bad[0, 0] = np.inf
+    with pytest.raises(MeshError, match=r"^surface: .*NaN or infinite"):
+        pull_to_surface((V, Q), (bad, Tr))
+    with pytest.raises(MeshError, match=r"^mesh: .*out of range"):
+        pull_to_surface((V, Q + len(V)), (Vr, Tr))
+    with pytest.raises(InputError, match=r"^surface: "):
+        pull_to_surface((V, Q), Vr)
+    with pytest.raises(InputError, match=r"^mesh: "):
+        pull_to_surface(V, (Vr, Tr))
+    # a bow-tie boundary (two loops through one vertex) is not a simple boundary
+    Vb = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], dtype=float)
+    Tb = np.array([[0, 1, 2], [0, 3, 4]])
+    with pytest.raises(MeshError, match=r"^surface: "):
+        pulled_vertices(V, Q, Vb, Tb)
