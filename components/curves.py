@@ -658,35 +658,41 @@ def _equal_chords_newton(c: CurveData, t_init: np.ndarray, iterations: int = 60)
     return t if np.max(np.abs(F)) <= 1e-12 * ch else None
 
 
-def _equal_chords_shooting(c: CurveData, count: int, length: float) -> np.ndarray | None:
-    """Fallback: march at a trial chord and adjust it (Brent) until the closing chord matches."""
+def _equal_chords_shooting(c: CurveData, count: int, length: float, scan: int = 64) -> np.ndarray | None:
+    """Fallback: march at a trial chord and adjust it (Brent) until the closing chord matches.
+
+    The closing-chord residual jumps where the "first point at distance c" switches branch (a curve that
+    turns sharply), so the chord range is scanned and every sign change is tried, longest chords first,
+    until one verifies (a jump is polished by Newton's method from the marched points).
+    """
     from scipy.optimize import brentq
 
     t0, t1 = c.domain
     T, P = _dense(c)
     steps = count - 1
-    hi = length / count
+    hi = length / count * (1 + 1e-9)  # a chord is never longer than its arc
 
     def g(ch):
         return _march(c, T, P, ch, steps, t1)[1]
 
-    g_hi = g(hi)
-    if g_hi > 0:  # chords can only be shorter than arcs; numerical slack
-        hi *= 1 + 1e-9
-        g_hi = g(hi)
-    lo = None
-    for f in (0.999, 0.99, 0.9, 0.75, 0.5, 0.25, 0.1, 0.01):
-        if g(hi * f) > 0:
-            lo = hi * f
-            break
-    if lo is None or g_hi > 0:
-        return None
-    chord = brentq(g, lo, hi, xtol=1e-15 * hi, rtol=1e-15, maxiter=200)
-    ts, _ = _march(c, T, P, chord, steps, t1)
-    if len(ts) != count:
-        return None
-    t = np.array(ts + [t1], dtype=np.float64)
-    return t if _chords_equal(c, t) else None
+    grid = hi * np.linspace(1.0, 0.02, scan)
+    vals = [g(x) for x in grid]
+    for k in range(scan - 1):
+        a, b = grid[k + 1], grid[k]  # a < b
+        ga, gb = vals[k + 1], vals[k]
+        if not (ga > 0 >= gb):
+            continue
+        chord = brentq(g, a, b, xtol=1e-15 * hi, rtol=1e-15, maxiter=200)
+        ts, _ = _march(c, T, P, chord, steps, t1)
+        if len(ts) != count:
+            continue
+        t = np.array(ts + [t1], dtype=np.float64)
+        if _chords_equal(c, t):
+            return t
+        t = _equal_chords_newton(c, t)  # a jump, not a root: polish from there
+        if t is not None and _chords_equal(c, t):
+            return t
+    return None
 
 
 def equal_chord_points(curve, count: int = 10, name: str = "curve") -> CurveSamples:

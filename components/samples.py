@@ -388,7 +388,7 @@ def sample_mesh(name: str = "dome", resolution: int = 32) -> tuple[np.ndarray, n
     B : (b,) int64
         The boundary loop's vertex indices, in order (counter-clockwise from above).
     """
-    from scipy.spatial import Delaunay
+    from scipy.spatial import Delaunay, cKDTree
 
     s = sample_surface_function(name)
     if isinstance(resolution, bool) or not float(resolution).is_integer():
@@ -414,14 +414,25 @@ def sample_mesh(name: str = "dome", resolution: int = 32) -> tuple[np.ndarray, n
     X = X + 0.5 * h * (np.arange(len(ys)) % 2)[:, None]
     L = np.column_stack([X.ravel(), Y.ravel()])
     L = L[s.contains(L[:, 0], L[:, 1])]
-    d = _point_segment_distance(L, BXY, np.roll(BXY, -1, axis=0))
-    L = L[d > 0.6 * h]
+    # distance to the boundary polygon: exact only near it (a point farther than ℓ/2 + 0.6 h from every
+    # boundary vertex is farther than 0.6 h from every boundary chord of length ≤ ℓ)
+    BN = np.roll(BXY, -1, axis=0)
+    half = 0.5 * float(np.max(np.linalg.norm(BN - BXY, axis=1)))
+    tree = cKDTree(BXY)
+    near = tree.query(L)[0] <= half + 0.6 * h
+    keep = np.ones(len(L), dtype=bool)
+    keep[near] = _point_segment_distance(L[near], BXY, BN) > 0.6 * h
+    L = L[keep]
     XY = np.vstack([BXY, L])
     nb = len(BXY)
     tri = Delaunay(XY)
     T = tri.simplices.astype(np.int64)
+    # inside the boundary polygon: the exact test near the boundary, the star-domain test elsewhere
     cen = XY[T].mean(axis=1)
-    T = T[_inside_polygon(cen, BXY)]
+    inside = s.contains(cen[:, 0], cen[:, 1])
+    near = tree.query(cen)[0] <= half + 2 * h
+    inside[near] = _inside_polygon(cen[near], BXY)
+    T = T[inside]
     flip = _signed_area2(XY, T) < 0
     T[flip] = T[flip][:, [0, 2, 1]]
     # every boundary edge must be a mesh edge and the only boundary

@@ -656,7 +656,7 @@ _MAX_GRID_VERTICES = 4_000_000
 
 
 def _weld(V: np.ndarray, tol: float) -> np.ndarray:
-    """Map every vertex to the first vertex within ``tol`` of it (union of coincident points)."""
+    """Map every point to the lowest-index point of its cluster of coincident points (within ``tol``)."""
     from scipy.spatial import cKDTree
 
     n = len(V)
@@ -702,7 +702,8 @@ def surface_mesh(
     -------
     mesh : Mesh
         Triangle mesh ``(V, T)``: two triangles per grid cell split along the shorter diagonal; coincident
-        grid points (a closed seam, a collapsed edge or pole) are welded and the collapsed triangles dropped.
+        grid points on the border of the parameter rectangle (a closed seam, a collapsed edge or pole) are
+        welded and the collapsed triangles dropped.
     count_u : int
         Number of grid segments used along u.
     count_v : int
@@ -779,7 +780,14 @@ def surface_mesh(
     size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     if size == 0:
         raise InputError("surface", "the surface collapses to a point")
-    rep = _weld(V, 1e-12 * size)
+    # seams and collapsed edges of an untrimmed surface lie on the border of the parameter grid: weld there
+    # only (interior points that touch are a self-intersection, not a seam)
+    border = np.zeros((cv + 1, cu + 1), dtype=bool)
+    border[[0, -1], :] = True
+    border[:, [0, -1]] = True
+    border = np.nonzero(border.ravel())[0]
+    rep = np.arange(len(V))
+    rep[border] = border[_weld(V[border], 1e-12 * size)]
     welded = int(np.sum(rep != np.arange(len(V))))
     T = rep[T]
     keep = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])
