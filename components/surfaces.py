@@ -36,7 +36,7 @@ from components.curves import (
     _check_count,
 )
 from components.mesh import InputError, face_normals
-from components.types import Curve, Mesh, NurbsCurve, NurbsSurface, Numbers, Point, Points, Surface
+from components.types import Curve, Mesh, NurbsCurve, Numbers, Point, Points, Surface
 
 log = logging.getLogger(__name__)
 
@@ -646,8 +646,8 @@ def surface_points(surface, u, v, grid: bool = True, name: str = "surface") -> n
 
 class SurfaceMeshResult(NamedTuple):
     mesh: Mesh
-    count_u: int
-    count_v: int
+    segments_u: int
+    segments_v: int
     uv: Points
     warnings: list[str]
 
@@ -704,9 +704,9 @@ def surface_mesh(
         Triangle mesh ``(V, T)``: two triangles per grid cell split along the shorter diagonal; coincident
         grid points on the border of the parameter rectangle (a closed seam, a collapsed edge or pole) are
         welded and the collapsed triangles dropped.
-    count_u : int
-        Number of grid segments used along u.
-    count_v : int
+    segments_u : int
+        Number of grid segments used along u (``count_u``, or derived from ``edge_length``).
+    segments_v : int
         Number of grid segments used along v.
     uv : Points
         Surface parameters ``(u, v, 0)`` of every vertex.

@@ -371,7 +371,7 @@ def test_surface_mesh_vertices_lie_on_the_rhino_surface(du, dv, nu, nv, rational
     rs = to_rhino_surface(s)
     r = surface_mesh(s, 17, 11)
     V, T = r.mesh
-    assert (r.count_u, r.count_v) == (17, 11) and V.shape == (18 * 12, 3) and T.shape == (2 * 17 * 11, 3)
+    assert (r.segments_u, r.segments_v) == (17, 11) and V.shape == (18 * 12, 3) and T.shape == (2 * 17 * 11, 3)
     ref = np.array([[q.X, q.Y, q.Z] for q in (rs.PointAt(u, v) for u, v, _ in r.uv.tolist())])
     assert np.abs(V - ref).max() <= 1e-9
     assert np.allclose(r.uv[[0, -1], :2], [[0, -1], [2, 4]])
@@ -400,7 +400,7 @@ def test_surface_mesh_edge_length_overrides_counts():
     P = np.array([[[0.0, 0, 0], [0, 4, 0]], [[10, 0, 0], [10, 4, 0]]])
     s = NurbsSurface(1, 1, P, np.ones((2, 2)), np.array([0.0, 1]), np.array([0.0, 1]))
     r = surface_mesh(s, 3, 3, edge_length=1.0)
-    assert (r.count_u, r.count_v) == (10, 4)
+    assert (r.segments_u, r.segments_v) == (10, 4)
     V, T = r.mesh
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
     L = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
