@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import hashlib
+import hmac
 import html
 import json
 import logging
@@ -28,12 +29,28 @@ DEFAULT_MAX_BODY_MB = 512
 
 @dataclass
 class Config:
-    """Server settings (every field has a built-in default)."""
+    """Server settings (every field has a built-in default).
+
+    ``workers`` > 0 runs solves in that many worker processes (isolation, time limit, memory cap); 0 solves in the
+    request thread (the default of :func:`create_app`, handy for tests and embedding; ``ghserver serve`` uses
+    one worker per core).
+    """
 
     max_body_mb: float = DEFAULT_MAX_BODY_MB
     cache_size: int = 64  # solved results kept in memory (0 disables the cache)
     report_dir: str | None = None  # folder whose report.html is served at /report
-    extra: dict = field(default_factory=dict)
+    workers: int = 0
+    solve_timeout: float = 90.0  # seconds; Hops gives up after 100 s by default
+    memory_limit_mb: float | None = None  # per worker process (POSIX)
+    max_vertices: int = 5_000_000
+    max_faces: int = 5_000_000
+    max_pending_solves: int = 0  # solves running or waiting at once; beyond → 503 (0: unlimited)
+    api_key: str | None = None  # required on solves (RhinoComputeKey header or Bearer token) when set
+    registry_factory: str = "ghserver.endpoints:build_registry"
+
+    @property
+    def limits(self) -> dict:
+        return {"max_vertices": self.max_vertices, "max_faces": self.max_faces}
 
 
 class ResultCache:
@@ -131,35 +148,59 @@ def metadata(uri: str):
     return json_response(comp.metadata())
 
 
+def _authorized() -> bool:
+    key = current_app.extensions["ghserver.config"].api_key
+    if not key:
+        return True
+    given = request.headers.get("RhinoComputeKey", "")
+    auth = request.headers.get("Authorization", "")
+    if auth.lower().startswith("bearer "):
+        given = given or auth[7:].strip()
+    return hmac.compare_digest(given.encode(), key.encode())
+
+
 def _solve(uri: str | None):
     started = time.perf_counter()
+    if not _authorized():
+        return json_response(protocol.error_body(["missing or wrong API key (send the RhinoComputeKey header)"]), 401)
+    slots: threading.BoundedSemaphore | None = current_app.extensions["ghserver.slots"]
+    if slots is not None and not slots.acquire(blocking=False):
+        return json_response(protocol.error_body(["the server is busy with other solves; try again"]), 503)
+    try:
+        return _solve_now(uri, started)
+    finally:
+        if slots is not None:
+            slots.release()
+
+
+def _solve_now(uri: str | None, started: float):
+    cfg: Config = current_app.extensions["ghserver.config"]
     raw = request.get_data(cache=False)
     try:
         body = json.loads(raw)
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         msg = getattr(exc, "msg", type(exc).__name__)
-        status, resp, comp_uri = 400, protocol.error_body([f"request body is not valid JSON: {msg}"]), uri or ""
-        body = None
+        _log_access(uri or "", None, 400, started, len(raw))
+        return json_response(protocol.error_body([f"request body is not valid JSON: {msg}"]), 400)
+    cache: ResultCache = current_app.extensions["ghserver.cache"]
+    key = None
+    pointer = uri if uri is not None else (body.get("pointer") if isinstance(body, dict) else None)
+    if isinstance(body, dict) and body.get("cachesolve", True) and cache.size > 0 and isinstance(pointer, str):
+        key = cache.key(protocol.pointer_uri(pointer), body)
+        hit = cache.get(key)
+        if hit is not None:
+            _log_access(protocol.pointer_uri(pointer), body, 200, started, len(raw), cached=True)
+            return Response(hit, status=200, mimetype="application/json")
+    pool = current_app.extensions.get("ghserver.pool")
+    if pool is not None:
+        status, text, comp_uri = pool.solve(raw, uri)
     else:
-        comp_uri = protocol.pointer_uri(uri) if uri else ""
-        cache: ResultCache = current_app.extensions["ghserver.cache"]
-        key = None
-        if isinstance(body, dict) and body.get("cachesolve", True) and cache.size > 0:
-            pointer = uri if uri is not None else body.get("pointer")
-            if isinstance(pointer, str):
-                key = cache.key(protocol.pointer_uri(pointer), body)
-                hit = cache.get(key)
-                if hit is not None:
-                    _log_access(protocol.pointer_uri(pointer), body, 200, started, len(raw), cached=True)
-                    return Response(hit, status=200, mimetype="application/json")
-        status, resp, comp_uri = protocol.solve(_registry(), body, uri)
-        if status == 200 and key is not None:
-            text = json.dumps(resp, ensure_ascii=False, allow_nan=False)
-            cache.put(key, text.encode("utf-8"))
-            _log_access(comp_uri, body, status, started, len(raw))
-            return Response(text, status=200, mimetype="application/json")
+        status, resp, comp_uri = protocol.solve(_registry(), body, uri, limits=cfg.limits)
+        text = json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8")
+    if status == 200 and key is not None:
+        cache.put(key, text)
     _log_access(comp_uri, body, status, started, len(raw))
-    return json_response(resp, status)
+    return Response(text, status=status, mimetype="application/json")
 
 
 def _log_access(uri, body, status, started, nbytes, cached=False):
@@ -213,15 +254,24 @@ def create_app(config: Config | dict | None = None, registry: Registry | None = 
     elif isinstance(config, dict):
         config = Config(**config)
     if registry is None:
-        from ghserver.endpoints import build_registry
+        from ghserver.workers import load_factory
 
-        registry = build_registry()
+        registry = load_factory(config.registry_factory)()
     app = Flask("ghserver")
     app.config["MAX_CONTENT_LENGTH"] = int(config.max_body_mb * 2**20) if config.max_body_mb else None
     app.json.ensure_ascii = False
     app.extensions["ghserver.registry"] = registry
     app.extensions["ghserver.config"] = config
     app.extensions["ghserver.cache"] = ResultCache(config.cache_size)
+    app.extensions["ghserver.slots"] = (threading.BoundedSemaphore(config.max_pending_solves)
+                                        if config.max_pending_solves > 0 else None)
+    if config.workers > 0:
+        from ghserver.workers import WorkerPool
+
+        app.extensions["ghserver.pool"] = WorkerPool(
+            config.workers, factory=config.registry_factory, timeout=config.solve_timeout,
+            memory_limit_mb=config.memory_limit_mb, limits=config.limits,
+        )
     app.register_blueprint(bp)
     app.register_error_handler(HTTPException, _handle_http_error)
     app.register_error_handler(Exception, _handle_unexpected)

@@ -46,10 +46,47 @@ def make_server(app, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, threads
         raise
 
 
-def _serve(args) -> int:
-    from ghserver.app import Config, create_app
+def _is_loopback(host: str) -> bool:
+    import ipaddress
 
-    cfg = Config(max_body_mb=args.max_body_mb, cache_size=args.cache_size, report_dir=args.report_dir)
+    if host in ("localhost",):
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def config_from_args(args):
+    """The :class:`ghserver.app.Config` of ``ghserver serve`` options; enforces the bind rules.
+
+    Binding anything but loopback requires an API key (``--api-key`` or ``GHSERVER_API_KEY``) unless
+    ``--no-auth`` says explicitly that the network is trusted.
+    """
+    import os
+
+    from ghserver.app import Config
+
+    api_key = args.api_key or os.environ.get("GHSERVER_API_KEY") or None
+    if not _is_loopback(args.host) and not api_key and not args.no_auth:
+        raise SystemExit(
+            f"refusing to listen on {args.host} without an API key: anyone on the network could run solves. "
+            "Pass --api-key KEY (or set GHSERVER_API_KEY; Hops sends it as RhinoComputeKey), or --no-auth on a "
+            "trusted network."
+        )
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    return Config(
+        max_body_mb=args.max_body_mb, cache_size=args.cache_size, report_dir=args.report_dir, workers=workers,
+        solve_timeout=args.solve_timeout, memory_limit_mb=args.memory_limit_mb or None,
+        max_vertices=args.max_vertices, max_faces=args.max_faces,
+        max_pending_solves=max(1, args.threads - 4) if workers else 0, api_key=api_key,
+    )
+
+
+def _serve(args) -> int:
+    from ghserver.app import create_app
+
+    cfg = config_from_args(args)
     app = create_app(cfg)
     n = len(app.extensions["ghserver.registry"])
     try:
@@ -58,15 +95,19 @@ def _serve(args) -> int:
     except OSError as exc:
         log.error("cannot listen on %s:%s: %s", args.host, args.port, exc)
         return 2
-    log.info("serving %d components on http://%s:%d/ (threads=%d, cache=%d, body limit %g MB)", n, args.host,
-             server.effective_port if hasattr(server, "effective_port") else args.port, args.threads,
-             args.cache_size, args.max_body_mb)
+    log.info("serving %d components on http://%s:%d/ (threads=%d, solver processes=%d, time limit %g s, "
+             "cache=%d, body limit %g MB%s)", n, args.host, args.port, args.threads, cfg.workers,
+             cfg.solve_timeout, args.cache_size, args.max_body_mb, ", API key required" if cfg.api_key else "")
     log.info("in Grasshopper: Hops path http://%s:%d/<component>, e.g. http://%s:%d/metrics/planarity",
              args.host, args.port, args.host, args.port)
     try:
         server.run()
     except KeyboardInterrupt:
         log.info("stopped")
+    finally:
+        pool = app.extensions.get("ghserver.pool")
+        if pool is not None:
+            pool.close()
     return 0
 
 
@@ -95,6 +136,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--cache-size", type=int, default=64, help="solved results kept in memory; 0 disables (default 64)")
     s.add_argument("--max-body-mb", type=float, default=512, help="largest request body in MB (default 512)")
     s.add_argument("--report-dir", default=None, help="folder whose report.html is served at /report")
+    s.add_argument("--workers", type=int, default=None,
+                   help="solver processes (default: one per core; 0 solves inside the server process)")
+    s.add_argument("--solve-timeout", type=float, default=90.0, help="seconds a solve may run (default 90)")
+    s.add_argument("--memory-limit-mb", type=float, default=0, help="memory cap per solver process (POSIX; 0: none)")
+    s.add_argument("--max-vertices", type=int, default=5_000_000, help="largest mesh accepted (default 5e6)")
+    s.add_argument("--max-faces", type=int, default=5_000_000, help="largest mesh accepted (default 5e6)")
+    s.add_argument("--api-key", default=None, help="require this key on solves (RhinoComputeKey header)")
+    s.add_argument("--no-auth", action="store_true", help="allow a non-loopback --host without an API key")
     s.set_defaults(func=_serve)
     ls = sub.add_parser("list", help="print the component catalogue")
     ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")

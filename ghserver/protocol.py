@@ -163,11 +163,29 @@ def _input_trees(component: Component, req: SolveRequest) -> dict[str, dict[tupl
 # values of one input
 
 
-def _decode_items(param, items: list) -> list:
+DEFAULT_LIMITS = {"max_vertices": 5_000_000, "max_faces": 5_000_000}
+
+
+def _check_size(param, value, limits: dict) -> None:
+    """Refuse meshes beyond the server's limits before any component work (413, naming the input and limit)."""
+    if param.kind != "Mesh":
+        return
+    V, F = value
+    for count, what, key in ((len(V), "vertices", "max_vertices"), (len(F), "faces", "max_faces")):
+        limit = limits.get(key)
+        if limit and count > limit:
+            flag = key.replace("_", "-")
+            raise RequestError(f"{param.name}: {count} {what} is more than the server's limit of {limit} "
+                               f"(ghserver serve --{flag})", status=413)
+
+
+def _decode_items(param, items: list, limits: dict | None = None) -> list:
+    limits = DEFAULT_LIMITS if limits is None else limits
     out = []
     for j, item in enumerate(items):
         try:
             out.append(P.decode_item(param.kind, item))
+            _check_size(param, out[-1], limits)
         except P.ParamError as exc:
             where = f" item {j}" if len(items) > 1 else ""
             raise RequestError(f"{param.name}{where}: {exc}") from None
@@ -206,7 +224,7 @@ def _context(component: Component, req: SolveRequest) -> dict:
     return ctx
 
 
-def _iterations(component: Component, trees: dict[str, dict[tuple, list]]):
+def _iterations(component: Component, trees: dict[str, dict[tuple, list]], limits: dict | None = None):
     """Yield ``(path, iteration index, iteration count in branch, kwargs)`` following Grasshopper's matching."""
     inputs = component.inputs
     branched = [p for p in inputs if p.access != "tree"]
@@ -218,7 +236,7 @@ def _iterations(component: Component, trees: dict[str, dict[tuple, list]]):
             if not t and not p.optional and not p.has_default:
                 raise RequestError(f"{p.name}: missing required input (the tree is empty)")
             if t:
-                tree_values[p.name] = {path: _decode_items(p, items) for path, items in t.items()}
+                tree_values[p.name] = {path: _decode_items(p, items, limits) for path, items in t.items()}
             elif p.has_default:
                 tree_values[p.name] = p.default
             else:
@@ -252,9 +270,9 @@ def _iterations(component: Component, trees: dict[str, dict[tuple, list]]):
             if items is None:
                 continue
             if p.access == "list":
-                decoded[p.name] = _list_value(p, _decode_items(p, items))
+                decoded[p.name] = _list_value(p, _decode_items(p, items, limits))
             else:
-                decoded[p.name] = _decode_items(p, items)
+                decoded[p.name] = _decode_items(p, items, limits)
         for i in range(n_iter):
             kwargs = dict(tree_values)
             for p in branched:
@@ -271,13 +289,13 @@ def _check_list_lengths(component: Component, kwargs: dict):
             raise RequestError(f"{p.name}: needs at least one item")
 
 
-def run(component: Component, req: SolveRequest) -> dict:
+def run(component: Component, req: SolveRequest, limits: dict | None = None) -> dict:
     """Solve a parsed request; raises :class:`RequestError` for bad input. Returns the response dict."""
     trees = _input_trees(component, req)
     ctx = _context(component, req)
     out_trees: list[dict[str, list]] = [{} for _ in component.outputs]
     warnings: list[str] = []
-    for path, i, n_iter, kwargs in _iterations(component, trees):
+    for path, i, n_iter, kwargs in _iterations(component, trees, limits):
         _check_list_lengths(component, kwargs)
         try:
             result = component.function(**kwargs, **ctx)
@@ -314,7 +332,7 @@ def error_body(errors: list[str], warnings: list[str] | None = None) -> dict:
     return {"values": [], "warnings": warnings or [], "errors": errors}
 
 
-def solve(registry: Registry, body: Any, uri: str | None = None) -> tuple[int, dict, str]:
+def solve(registry: Registry, body: Any, uri: str | None = None, limits: dict | None = None) -> tuple[int, dict, str]:
     """The whole solve path. Returns ``(status, response, component uri)``; never raises.
 
     400 bad input (named), 404-free: an unknown component is a 400 too, 500 "Bad inputs" when the client's
@@ -327,7 +345,7 @@ def solve(registry: Registry, body: Any, uri: str | None = None) -> tuple[int, d
         component = registry.get(req.pointer)
         if component is None:
             raise RequestError(f"unknown component {req.pointer!r}; GET / lists the components")
-        return 200, run(component, req), comp_uri
+        return 200, run(component, req, limits), comp_uri
     except RequestError as exc:
         return exc.status, error_body(exc.errors), comp_uri
     except MemoryError:

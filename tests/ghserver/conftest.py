@@ -50,19 +50,28 @@ def client(app):
 
 
 class LiveServer:
+    """A waitress server in a thread; stopped from its own loop thread so no socket is closed under select()."""
+
     def __init__(self, app, threads=8):
         self.server = make_server(app, "127.0.0.1", 0, threads=threads)
         self.port = self.server.effective_port
         self.url = f"http://127.0.0.1:{self.port}"
-        self.thread = threading.Thread(target=self.server.run, daemon=True)
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self):
+        srv = self.server
+        while not self._stop.is_set():
+            srv.asyncore.loop(timeout=0.05, map=srv._map, count=1)
+        srv.close()
 
     def __enter__(self):
         self.thread.start()
         return self
 
     def __exit__(self, *exc):
-        self.server.close()
-        self.thread.join(timeout=5)
+        self._stop.set()
+        self.thread.join(timeout=10)
 
 
 @pytest.fixture

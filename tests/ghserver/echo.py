@@ -267,7 +267,89 @@ def foo(Mesh: Mesh, Distance: float = 1.0) -> FooResult:
     return FooResult((V + Distance * n, F), float(np.linalg.norm(N, axis=1).sum()))
 
 
+class Process(NamedTuple):
+    value: float
+    pid: int
+
+
+def nap(seconds: float = 0.1) -> Process:
+    """Sleep, then report the process that ran the solve.
+
+    Parameters
+    ----------
+    seconds : float
+        How long to sleep.
+
+    Returns
+    -------
+    value : float
+        The seconds slept.
+    pid : int
+        Process id of the solver.
+    """
+    import os
+    import time
+
+    time.sleep(seconds)
+    return Process(seconds, os.getpid())
+
+
+def crash(how: str = "exit") -> Process:
+    """Kill the solving process in one of several ways (for isolation tests).
+
+    Parameters
+    ----------
+    how : str
+        ``"exit"`` (hard exit), ``"segfault"``, ``"memory"`` (allocate without bound) or ``"none"``.
+
+    Returns
+    -------
+    value : float
+        0 when ``how`` is ``"none"``.
+    pid : int
+        Process id of the solver.
+    """
+    import ctypes
+    import os
+
+    if how == "exit":
+        os._exit(3)
+    if how == "segfault":
+        ctypes.string_at(0)
+    if how == "memory":
+        blocks = []
+        while True:
+            blocks.append(np.ones(50_000_000))
+    return Process(0.0, os.getpid())
+
+
+def spin(n: int = 3_000_000) -> Process:
+    """Burn CPU in pure Python (a CPU-bound solve for load tests).
+
+    Parameters
+    ----------
+    n : int
+        Loop iterations.
+
+    Returns
+    -------
+    value : float
+        A checksum of the loop.
+    pid : int
+        Process id of the solver.
+    """
+    import os
+
+    total = 0
+    for i in range(n):
+        total = (total + i * i) % 1_000_003
+    return Process(float(total), os.getpid())
+
+
 ECHO = [
+    ("test/nap", nap),
+    ("test/crash", crash),
+    ("test/spin", spin),
     ("echo/scalars", scalars),
     ("echo/geometry", geometry),
     ("echo/lists", lists),

@@ -1,0 +1,223 @@
+"""Process isolation for solves: a pool of worker processes with a time limit and a memory cap per solve.
+
+A solve that crashes its process, leaks, or runs past its time limit is killed and answered with a JSON error
+while the server and the other solves carry on. Requests and answers cross the process boundary as JSON bytes
+(never pickled request data). Each worker builds its own registry from an importable factory
+(``"module:function"``), so any component set — the published one or a test one — can run isolated.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import logging
+import multiprocessing as mp
+import os
+import queue
+import sys
+import threading
+import time
+
+log = logging.getLogger(__name__)
+
+DEFAULT_FACTORY = "ghserver.endpoints:build_registry"
+STARTUP_TIMEOUT = 120.0  # seconds a new worker may take to import numpy/scipy and build its registry
+
+
+def load_factory(spec: str):
+    """The callable named by ``"package.module:function"``."""
+    module, _, name = spec.partition(":")
+    if not module or not name:
+        raise ValueError(f"registry factory must look like 'package.module:function', got {spec!r}")
+    return getattr(importlib.import_module(module), name)
+
+
+def _rss_mb() -> float:
+    """Resident memory of this process in MB (Linux /proc; 0 where unavailable)."""
+    try:
+        with open("/proc/self/statm") as f:
+            pages = int(f.read().split()[1])
+        return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, AttributeError):
+        return 0.0
+
+
+def _limit_memory(mb: float | None) -> None:
+    if not mb or sys.platform == "win32":
+        return
+    try:
+        import resource
+
+        limit = int(mb * 2**20)
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    except (ImportError, ValueError, OSError) as exc:  # pragma: no cover - platform dependent
+        log.warning("cannot cap worker memory: %s", exc)
+
+
+def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict) -> None:
+    """Loop of a worker process: receive (header, body) bytes, solve, send (header, response) bytes."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl+C
+    from ghserver import protocol
+
+    _limit_memory(memory_limit_mb)
+    registry = load_factory(factory)()
+    conn.send_bytes(b'{"ready": true}')
+    while True:
+        try:
+            header = json.loads(conn.recv_bytes())
+            raw = conn.recv_bytes()
+        except (EOFError, OSError):
+            return
+        try:
+            body = json.loads(raw)
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+            status, resp, uri = 400, protocol.error_body([f"request body is not valid JSON: {exc}"]), ""
+        else:
+            status, resp, uri = protocol.solve(registry, body, header.get("uri"), limits=limits)
+        text = json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8")
+        conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb()}).encode())
+        conn.send_bytes(text)
+
+
+class _Worker:
+    def __init__(self, ctx, factory, memory_limit_mb, limits):
+        parent, child = ctx.Pipe()
+        self.conn = parent
+        self.process = ctx.Process(target=_worker_main, args=(child, factory, memory_limit_mb, limits), daemon=True)
+        self.process.start()
+        child.close()
+        self.solves = 0
+        self.ready = False
+
+    def wait_ready(self, timeout: float) -> bool:
+        if self.ready:
+            return True
+        if self.conn.poll(timeout):
+            try:
+                self.ready = json.loads(self.conn.recv_bytes()).get("ready", False)
+            except (EOFError, OSError, ValueError):
+                return False
+        return self.ready
+
+    def kill(self) -> None:
+        try:
+            self.process.kill()
+        except Exception:  # pragma: no cover
+            pass
+        self.process.join(timeout=5)
+        self.conn.close()
+
+
+class WorkerPool:
+    """``size`` worker processes; :meth:`solve` runs one request in an idle one.
+
+    Parameters
+    ----------
+    size : int
+        Number of worker processes (default: the number of cores).
+    factory : str
+        ``"module:function"`` returning the registry each worker serves.
+    timeout : float
+        Seconds a solve may run before its worker is killed (answered 504).
+    memory_limit_mb : float, optional
+        Address-space cap of each worker (POSIX); a solve that passes it fails with a JSON error.
+    recycle_mb : float, optional
+        A worker whose resident memory is above this after a solve is replaced, so memory returns to baseline.
+    limits : dict
+        Input size limits passed to :func:`ghserver.protocol.solve`.
+    """
+
+    def __init__(self, size: int | None = None, factory: str = DEFAULT_FACTORY, timeout: float = 90.0,
+                 memory_limit_mb: float | None = None, recycle_mb: float | None = 1024.0,
+                 limits: dict | None = None, start_method: str | None = None):
+        self.size = max(1, int(size or os.cpu_count() or 1))
+        self.factory = factory
+        self.timeout = float(timeout)
+        self.memory_limit_mb = memory_limit_mb
+        self.recycle_mb = recycle_mb
+        self.limits = dict(limits or {})
+        if start_method is None:
+            start_method = "forkserver" if sys.platform.startswith("linux") else "spawn"
+        self.ctx = mp.get_context(start_method)
+        self._idle: queue.Queue[_Worker] = queue.Queue()
+        self._lock = threading.Lock()
+        self._all: list[_Worker] = []
+        self._closed = False
+        load_factory(factory)  # fail early on a bad factory
+        for _ in range(self.size):
+            self._idle.put(self._spawn())
+
+    def _spawn(self) -> _Worker:
+        w = _Worker(self.ctx, self.factory, self.memory_limit_mb, self.limits)
+        with self._lock:
+            self._all.append(w)
+        return w
+
+    def _retire(self, w: _Worker) -> None:
+        w.kill()
+        with self._lock:
+            if w in self._all:
+                self._all.remove(w)
+
+    def _replace(self, w: _Worker) -> None:
+        self._retire(w)
+        if not self._closed:
+            self._idle.put(self._spawn())
+
+    def pids(self) -> list[int]:
+        with self._lock:
+            return [w.process.pid for w in self._all]
+
+    def solve(self, raw: bytes, uri: str | None, wait: float | None = None) -> tuple[int, bytes, str]:
+        """Solve one request body; returns ``(status, response JSON bytes, component uri)``. Never raises."""
+        from ghserver.protocol import error_body
+
+        def err(status, msg):
+            return status, json.dumps(error_body([msg]), ensure_ascii=False).encode("utf-8"), uri or ""
+
+        if self._closed:
+            return err(503, "server is shutting down")
+        try:
+            w = self._idle.get(timeout=wait if wait is not None else self.timeout)
+        except queue.Empty:
+            return err(503, "all solver processes are busy; try again")
+        try:
+            if not w.wait_ready(STARTUP_TIMEOUT):
+                self._replace(w)
+                return err(500, "a solver process failed to start (see the server log)")
+            started = time.monotonic()
+            w.conn.send_bytes(json.dumps({"uri": uri}).encode())
+            w.conn.send_bytes(raw)
+            remaining = self.timeout - (time.monotonic() - started)
+            if not w.conn.poll(max(remaining, 0.0)):
+                log.warning("solve of %s passed the %g s time limit: worker %d killed", uri, self.timeout,
+                            w.process.pid)
+                self._replace(w)
+                return err(504, f"solve of {uri or 'the request'} passed the server's time limit of {self.timeout:g} s "
+                                "and was stopped (raise --solve-timeout, or send a smaller input)")
+            header = json.loads(w.conn.recv_bytes())
+            text = w.conn.recv_bytes()
+        except (EOFError, OSError, ValueError) as exc:
+            code = w.process.exitcode
+            log.error("worker %d died during a solve of %s (exit code %s, %s)", w.process.pid, uri, code,
+                      type(exc).__name__)
+            self._replace(w)
+            return err(500, f"the solver process crashed while solving {uri or 'the request'} "
+                            f"(exit code {code}); the server is fine, other solves are unaffected")
+        w.solves += 1
+        if self.recycle_mb and header.get("rss_mb", 0) > self.recycle_mb:
+            log.info("recycling worker %d (%.0f MB resident)", w.process.pid, header["rss_mb"])
+            self._replace(w)
+        else:
+            self._idle.put(w)
+        return int(header["status"]), text, header.get("uri", uri or "")
+
+    def close(self) -> None:
+        self._closed = True
+        with self._lock:
+            workers = list(self._all)
+        for w in workers:
+            w.kill()
+        with self._lock:
+            self._all.clear()
