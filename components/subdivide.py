@@ -46,7 +46,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from components.mesh import InputError, edge_topology, face_sizes, halfedges, validate_mesh
+from components.mesh import InputError, face_sizes, halfedges, validate_mesh
 from components.types import Integers, Mesh
 
 log = logging.getLogger(__name__)
@@ -218,12 +218,37 @@ class _Topology(NamedTuple):
     smooth_boundary: np.ndarray  # (n,) bool: boundary vertex on a crease (B-spline rule)
 
 
-def _topology(V, F, n, boundary, corners, corner_angle) -> _Topology:
+def _edges(F: np.ndarray, n: int):
+    """Half-edges and undirected edges with 1D integer keys (same order as ``edge_topology``, much faster).
+
+    ``np.unique(..., axis=0)`` sorts rows as structured records, ~10x slower than sorting ``a * n + b``.
+    """
     H, HF = halfedges(F)
-    topo = edge_topology(F)
-    interior_edge = topo.count == 2
-    B = H[topo.count[topo.HE] == 1]
-    valence = np.bincount(topo.E.ravel(), minlength=n).astype(np.int64)
+    lo = np.minimum(H[:, 0], H[:, 1])
+    hi = np.maximum(H[:, 0], H[:, 1])
+    key = lo * np.int64(n) + hi
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    first = np.ones(len(ks), dtype=bool)
+    first[1:] = ks[1:] != ks[:-1]
+    eid_sorted = np.cumsum(first) - 1
+    HE = np.empty(len(H), dtype=np.int64)
+    HE[order] = eid_sorted
+    starts = np.nonzero(first)[0]
+    E = np.stack([lo[order[starts]], hi[order[starts]]], axis=1)
+    count = np.diff(np.append(starts, len(ks)))
+    EF = np.full((len(E), 2), -1, dtype=np.int64)
+    EF[:, 0] = HF[order[starts]]
+    two = count >= 2
+    EF[two, 1] = HF[order[starts[two] + 1]]
+    return H, HF, HE, E, EF, count
+
+
+def _topology(V, F, n, boundary, corners, corner_angle) -> _Topology:
+    H, HF, HE, E, EF, count = _edges(F, n)
+    interior_edge = count == 2
+    B = H[count[HE] == 1]
+    valence = np.bincount(E.ravel(), minlength=n).astype(np.int64)
     bcount = np.bincount(B.ravel(), minlength=n)  # each boundary vertex: one in, one out → 2
     on_boundary = bcount > 0
     corner = np.zeros(n, dtype=bool)
@@ -247,7 +272,7 @@ def _topology(V, F, n, boundary, corners, corner_angle) -> _Topology:
         corner[cand[turn > corner_angle]] = True
     interior = (valence > 0) & ~on_boundary
     smooth_boundary = on_boundary & ~corner
-    return _Topology(H, HF, topo.HE, topo.E, topo.EF, interior_edge, B, valence, interior, corner, smooth_boundary)
+    return _Topology(H, HF, HE, E, EF, interior_edge, B, valence, interior, corner, smooth_boundary)
 
 
 def _csr(rows, cols, vals, shape):
