@@ -6,11 +6,37 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import metrics
+from components import curvature, metrics, pull, samples, subdivide, surfaces
 from ghserver.registry import Registry, declare
 
+M = {"mesh": "M"}
+
 COMPONENTS = [
-    declare(metrics.planarity, "metrics/planarity", nicknames={"mesh": "M", "planarity": "P"}),
+    # metrics and analysis
+    declare(metrics.planarity, "metrics/planarity", nicknames={**M, "planarity": "P"}),
+    declare(metrics.warping, "metrics/warping", nicknames=M),
+    declare(metrics.diagonal_ratio, "metrics/diagonal_ratio", nicknames=M),
+    declare(metrics.face_areas, "metrics/face_areas", nicknames=M),
+    declare(metrics.edge_lengths, "metrics/edge_lengths", nicknames=M),
+    declare(metrics.corner_angles, "metrics/corner_angles", nicknames=M),
+    declare(metrics.verdict_quality, "metrics/verdict_quality", nicknames=M),
+    declare(metrics.conical_criterion, "metrics/conical_criterion", nicknames=M),
+    declare(metrics.valence, "metrics/valence", nicknames=M),
+    declare(metrics.closeness, "metrics/closeness", nicknames={**M, "reference": "R"}),
+    declare(metrics.analysis, "metrics/analysis", nicknames={**M, "reference": "R"}),
+    declare(metrics.report, "metrics/report", nicknames={**M, "reference": "R"}),
+    # surfaces
+    declare(surfaces.translation_surface, "surfaces/translation", nicknames={"generatrix": "G", "directrix": "D"}),
+    declare(surfaces.scale_translation_surface, "surfaces/scale_translation",
+            nicknames={"generatrix": "G", "directrix": "D"}),
+    declare(surfaces.paraboloid_surface, "surfaces/paraboloid"),
+    declare(surfaces.surface_mesh, "surfaces/surface_mesh", nicknames={"surface": "S"}),
+    declare(samples.sample_surface, "surfaces/sample"),
+    # fields
+    declare(curvature.principal_curvature, "fields/principal_curvature", nicknames=M),
+    # subdivision strategy
+    declare(subdivide.subdivide, "subdivision/catmull_clark", nicknames=M),
+    declare(pull.pull_to_surface, "subdivision/pull_to_surface", nicknames={**M, "surface": "S"}),
 ]
 
 
