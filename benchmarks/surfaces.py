@@ -91,6 +91,7 @@ def main():
             rows.append((f"curve points, {m:,}", ours, ref, float(np.abs(P - R).max())))
         else:
             rows.append((f"curve points, {m:,}", ours, None, None))
+    equal_chord_points(c, 5)  # warm-up: first use imports scipy.sparse.linalg
     for n in (100, 1_000):
         ours, _ = best(lambda: sample_curve(c, n, "arclength"))
         rows.append((f"arc-length division, {n:,} segments", ours, None, None))
