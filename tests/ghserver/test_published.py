@@ -1,0 +1,99 @@
+"""Every published component, called over HTTP with the Python client on a real server, gives real results.
+
+A component added to ``ghserver/endpoints.py`` must get a case here (the last test checks it).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.mesh import quad_grid
+from components.types import NurbsCurve, NurbsSurface
+from ghserver.client import Client
+from ghserver.endpoints import build_registry
+
+
+def hypar():
+    V, Q = quad_grid(8, 8, 2.0, 2.0)
+    V[:, :2] -= 1
+    V[:, 2] = 0.5 * V[:, 0] * V[:, 1]
+    return V, Q
+
+
+def dome_tri(n=12):
+    from components.samples import sample_mesh
+
+    V, T, _ = sample_mesh("dome", n)
+    return V, T
+
+
+def _arc():
+    w = np.array([1.0, np.sqrt(0.5), 1.0])
+    return NurbsCurve(2, np.array([[0.0, 0, 0], [0, 5, 3], [0, 10, 0]]), w, np.array([0, 0, 1, 1.0]))
+
+
+def _surface():
+    P = np.zeros((4, 4, 3))
+    P[..., 0], P[..., 1] = np.meshgrid(np.linspace(0, 9, 4), np.linspace(0, 6, 4), indexing="ij")
+    P[1:3, 1:3, 2] = 2.0
+    return NurbsSurface(3, 3, P, np.ones((4, 4)), np.array([0, 0, 0, 1, 1, 1.0]), np.array([0, 0, 0, 1, 1, 1.0]))
+
+
+def check_planarity(r):
+    assert r.planarity.shape == (64,) and r.max_planarity > 0.01 and np.isclose(r.max_planarity, r.planarity.max())
+
+
+CASES = {
+    "metrics/planarity": (lambda: dict(mesh=hypar()), check_planarity),
+    "metrics/warping": (lambda: dict(mesh=hypar()), lambda r: np.isclose(r.max_warping, r.warping.max())),
+    "metrics/diagonal_ratio": (lambda: dict(mesh=hypar()), lambda r: np.all(r.diagonal_ratio >= 1.0)),
+    "metrics/face_areas": (lambda: dict(mesh=quad_grid(3, 2, 3.0, 2.0)), lambda r: np.isclose(r.total_area, 6.0)),
+    "metrics/edge_lengths": (lambda: dict(mesh=quad_grid(2, 2)), lambda r: np.allclose(r.lengths, 0.5)),
+    "metrics/corner_angles": (lambda: dict(mesh=quad_grid(2, 2)), lambda r: np.allclose(r.min_angle, np.pi / 2)),
+    "metrics/verdict_quality": (lambda: dict(mesh=quad_grid(2, 2)), lambda r: np.allclose(r.values, 1.0)),
+    "metrics/conical_criterion": (lambda: dict(mesh=quad_grid(4, 4)), lambda r: r.max_criterion < 1e-12),
+    "metrics/valence": (lambda: dict(mesh=quad_grid(4, 4)), lambda r: r.count_singularities == 0),
+    "metrics/closeness": (lambda: dict(mesh=quad_grid(2, 2), reference=quad_grid(2, 2)),
+                          lambda r: r.max_distance < 1e-12),
+    "metrics/analysis": (lambda: dict(mesh=hypar(), measure="planarity"),
+                         lambda r: len(r.display[0]) == 4 * 64 and r.legend_max >= r.values.max() - 1e-12),
+    "metrics/report": (lambda: dict(mesh=hypar()),
+                       lambda r: len(r.names) == len(r.values) and r.values[r.names.index("planarity_max")] > 0.01),
+    "surfaces/translation": (lambda: dict(generatrix=np.array([[0, 0, 0], [4, 0, 1], [8, 0, 0.5], [12, 0, 0.0]]),
+                                          directrix=_arc(), count_u=6, count_v=5),
+                             lambda r: r.face_count == 30 and r.max_planarity < 1e-12),
+    "surfaces/scale_translation": (lambda: dict(generatrix=np.array([[0, 0, 0], [4, 0, 1], [8, 0, 0.0]]),
+                                                directrix=_arc(), scale=0.95, count_u=4, count_v=5),
+                                   lambda r: r.max_planarity < 1e-12),
+    "surfaces/paraboloid": (lambda: dict(kind="hyperbolic"), lambda r: r.max_planarity < 1e-12),
+    "surfaces/surface_mesh": (lambda: dict(surface=_surface(), count_u=6, count_v=5),
+                              lambda r: len(r.mesh[0]) == 7 * 6),
+    "surfaces/sample": (lambda: dict(name="saddle", resolution=10), lambda r: np.mean(r.gaussian_curvature < 0) > 0.9),
+    "fields/principal_curvature": (lambda: dict(mesh=dome_tri()), lambda r: np.median(r.gaussian) > 0),
+    "subdivision/catmull_clark": (lambda: dict(mesh=quad_grid(3, 3), levels=2), lambda r: r.face_count == 9 * 16),
+    "subdivision/pull_to_surface": (lambda: dict(mesh=quad_grid(3, 3, 1.0, 1.0, lambda x, y: 0.1 + 0 * x),
+                                                 surface=quad_grid(3, 3)),
+                                    lambda r: r.max_after < 1e-12 and np.isclose(r.max_before, 0.1)),
+}
+
+
+@pytest.fixture(scope="module")
+def client():
+    from ghserver.app import Config, create_app
+    from tests.ghserver.conftest import LiveServer
+
+    with LiveServer(create_app(Config(cache_size=0))) as srv:
+        yield Client(srv.url)
+
+
+@pytest.mark.parametrize("uri", sorted(CASES))
+def test_published_component_over_http(client, uri):
+    make_inputs, check = CASES[uri]
+    result = client.call(uri, **make_inputs())
+    outcome = check(result)
+    assert outcome is None or bool(outcome), f"{uri}: property check failed"
+
+
+def test_every_published_component_has_a_case():
+    missing = sorted(c.uri for c in build_registry() if c.uri not in CASES)
+    assert not missing, f"add HTTP cases for {missing}"
