@@ -10,8 +10,8 @@ Rules (Catmull & Clark 1978; boundary rules of Hoppe et al. 1994 / DeRose et al.
 
 * face point: the centroid of the face corners;
 * interior edge point: ``(a + b + f₁ + f₂) / 4`` with ``f₁, f₂`` the two new face points;
-* interior vertex point of valence ``n``: ``((n − 2) P + Σ eⱼ / n + Σ fⱼ / n) / n`` with ``eⱼ`` the edge neighbours
-  and ``fⱼ`` the new face points around it;
+* interior vertex point of valence ``n``: ``((n − 2) P + Σ eⱼ / n + Σ fⱼ / n) / n`` with ``eⱼ`` the edge
+  neighbours and ``fⱼ`` the new face points around it;
 * boundary (``boundary="crease"``): boundary edges are creases: edge point = midpoint, boundary vertex
   ``3/4 P + 1/8 (a + b)`` with ``a, b`` its boundary neighbours, so every boundary polyline is refined as a
   uniform cubic B-spline control polygon and the subdivided net ends on the boundary curve of the coarse net;
@@ -345,9 +345,9 @@ def subdivision_step(V, F, boundary: str = "crease", corners=None,
     Parameters
     ----------
     V : (n, 3) float64
-        Vertex positions (used only to find sharp boundary corners; ``None`` skips that test).
+        Vertex positions (the matrix depends on them only through the sharp-corner test).
     F : (m, k) int64
-        Padded polygon faces (a valid, manifold, consistently oriented mesh: see :func:`coarse_mesh`).
+        Padded polygon faces (validated like :func:`coarse_mesh`: manifold, consistently oriented).
     boundary : {"crease", "linear"}
         Boundary rule (see the module notes).
     corners : (c,) int64, optional
@@ -361,16 +361,21 @@ def subdivision_step(V, F, boundary: str = "crease", corners=None,
         ``S (n + e + m, n)`` CSR with rows summing to 1, ``Q (Σ sizes, 4)`` int64 quads (child quads of face
         ``f`` are contiguous, in corner order), ``corners (c,)`` the fixed vertices.
 
+    Raises
+    ------
+    MeshError, InputError
+        As :func:`catmull_clark`.
+
     Example
     -------
     >>> step = subdivision_step(V, F)
     >>> V1, Q1 = step.S @ V, step.Q
     """
-    F = np.asarray(F, dtype=np.int64)
-    n = len(V) if V is not None else int(F.max()) + 1
     boundary = _check_boundary(boundary)
-    t = _topology(None if V is None else np.asarray(V, dtype=np.float64), F, n, boundary,
-                  _check_corners(corners, n), _check_angle(corner_angle))
+    corner_angle = _check_angle(corner_angle)
+    V, F = coarse_mesh(V, F)
+    n = len(V)
+    t = _topology(V, F, n, boundary, _check_corners(corners, n), corner_angle)
     return _step(n, F, t)
 
 
@@ -430,13 +435,13 @@ def catmull_clark(V, F, levels: int = 1, boundary: str = "crease", corners=None,
     >>> V1, Q1, info = catmull_clark(V, F, levels=2)
     >>> info.levels[-1].irregular_vertices
     """
-    V, F = coarse_mesh(V, F, name=name)
     levels = _check_levels(levels)
     boundary = _check_boundary(boundary)
-    corners = _check_corners(corners, len(V))
     corner_angle = _check_angle(corner_angle)
-    if isinstance(max_faces, bool) or not isinstance(max_faces, numbers.Real) or max_faces < 1:
+    if isinstance(max_faces, bool) or not isinstance(max_faces, numbers.Real) or not max_faces >= 1:
         raise InputError("max_faces", f"must be a positive number, got {max_faces!r}")
+    V, F = coarse_mesh(V, F, name=name)
+    corners = _check_corners(corners, len(V))
     total = face_count_after(F, levels)
     if total > max_faces:
         raise InputError(

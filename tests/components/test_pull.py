@@ -136,6 +136,33 @@ def test_real_mesh_quad_remesh_onto_inspired_mesh():
     assert np.abs(again.V - res.V).max() <= 1e-12 * diag
 
 
+def _coarse_layout(surface, n=6):
+    """A coarse n × n quad net over a sample's plan domain (square rings mapped to the boundary), lifted to it."""
+    V, Q = quad_grid(n, n, 2.0, 2.0)
+    u, v = V[:, 0] - 1, V[:, 1] - 1
+    theta = np.arctan2(v, u)
+    r = np.maximum(np.abs(u), np.abs(v)) * surface.boundary_radius(theta)
+    return surface.point(r * np.cos(theta), r * np.sin(theta)), Q
+
+
+@pytest.mark.parametrize("name", ["dome", "saddle", "wave", "canopy"])
+def test_subdivided_net_pulled_onto_sample_surfaces(name):
+    samples = pytest.importorskip("components.samples")
+    s = samples.sample_surface_function(name)
+    Vr, Tr, _ = samples.sample_mesh(name, 24)
+    V, Q, _ = catmull_clark(*_coarse_layout(s), levels=2)
+    res = pulled_vertices(V, Q, Vr, Tr)
+    diag = bounding_box_diagonal(Vr)
+    assert res.distances_after.max() <= 1e-9 * diag
+    sq, _, _ = igl.point_mesh_squared_distance(res.V, Vr, Tr)
+    assert np.sqrt(sq).max() <= 1e-9 * diag
+    assert _boundary_distance(res.V[res.boundary_vertices], Vr, Tr).max() <= 1e-9 * diag
+    # the exact surface is close too (the reference mesh is a fine approximation of it)
+    assert s.distance(res.V).max() < 0.01 * diag
+    if name in ("dome", "saddle"):
+        assert len(res.flipped_faces) == 0
+
+
 # ----------------------------------------------------------------------------------------------
 # published component and errors
 
