@@ -563,6 +563,17 @@ def _text_width(text: str, per_char: float = 6.0, pad: float = 8.0) -> float:
     return float(round(len(text) * per_char + pad))
 
 
+def _as_sources(value) -> list[Source]:
+    """Normalise a wire spec: Source, (Placed, index/name), or a list of those."""
+    if isinstance(value, list):
+        return [s for v in value for s in _as_sources(v)]
+    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], Placed):
+        return [value[0].out(value[1])]
+    if isinstance(value, Source):
+        return [value]
+    raise TypeError(f"not a wire source: {value!r}")
+
+
 def _add_sources(container: Chunk, sources) -> None:
     for k, s in enumerate(sources):
         container.add("Source", GUID, s.guid, index=k)
@@ -746,10 +757,11 @@ class Document:
             The server's answer to ``GET url`` (``Description``, ``Inputs``, ``Outputs`` with ``Name``,
             ``Nickname``, ``Description``, ``ParamType``, ``AtLeast``/``AtMost``/``TreeAccess``).
         sources : dict
-            ``{input name: Source or [Source, ...]}`` wires; other inputs stay unconnected (Hops then uses the
-            server's ``Default``).
+            ``{input name: source or [source, ...]}`` wires, a source being a :class:`Source` or an
+            ``(object, output index or name)`` pair; other inputs stay unconnected (Hops then uses the server's
+            ``Default``).
         """
-        sources = dict(sources or {})
+        sources = {k: _as_sources(v) for k, v in (sources or {}).items()}
         ins, outs = metadata.get("Inputs", []), metadata.get("Outputs", [])
         names = [p["Name"] for p in ins]
         unknown = set(sources) - set(names)
@@ -799,8 +811,7 @@ class Document:
             ch.add("Name", STRING, p["Name"])
             ch.add("NickName", STRING, p.get("Nickname") or p["Name"])
             ch.add("Optional", BOOL, p.get("AtLeast", 1) == 0)
-            src = sources.get(p["Name"])
-            _add_sources(ch, [] if src is None else (src if isinstance(src, list) else [src]))
+            _add_sources(ch, sources.get(p["Name"], []))
             hi = (h - 4.0) / max(len(ins), 1)
             _attributes(ch, (x + 2, y + 2 + i * hi, w_in, hi))
             inputs[p["Name"]] = ch

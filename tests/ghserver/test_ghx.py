@@ -454,7 +454,11 @@ def test_add_hops_rejects_unknown_inputs_and_kinds(echo_registry):
     bad = dict(meta, Inputs=[dict(meta["Inputs"][0], ParamType="Generic Data")])
     with pytest.raises(ValueError, match="Generic Data"):
         doc.add_hops("h2", "http://127.0.0.1:5000/foo", bad)
-    doc.add_param("Mesh", "m")
+    m = doc.add_param("Mesh", "m")
+    h = doc.add_hops("h3", "http://127.0.0.1:5000/foo", meta, sources={"Mesh": (m, 0), "Distance": [m.out(0)]})
+    assert h.inputs["Mesh"].indexed("Source") == h.inputs["Distance"].indexed("Source") == [m.guid]
+    with pytest.raises(TypeError):
+        doc.add_hops("h4", "http://127.0.0.1:5000/foo", meta, sources={"Mesh": "not a source"})
     with pytest.raises(ValueError, match="duplicate"):
         doc.add_param("Mesh", "m")
     with pytest.raises(ValueError, match="outside"):
