@@ -183,20 +183,34 @@ def edge_topology(F: np.ndarray) -> EdgeTopology:
     Returns
     -------
     EdgeTopology
-        ``E`` (e, 2), ``EF`` (e, 2) with -1 for a missing second face, ``count`` (e,) faces per edge
-        (1 boundary, 2 interior, >2 non-manifold), ``HE`` (h,) edge of each half-edge.
+        ``E`` (e, 2) sorted lexicographically, ``EF`` (e, 2) with -1 for a missing second face, ``count`` (e,) faces
+        per edge (1 boundary, 2 interior, >2 non-manifold), ``HE`` (h,) edge of each half-edge.
+
+    Notes
+    -----
+    Edges are keyed by the single integer ``min · n + max`` (``n`` = largest index + 1) and sorted once; this is
+    several times faster than ``np.unique(..., axis=0)`` on rows.
     """
     H, HF = halfedges(F)
-    key = np.sort(H, axis=1)
-    E, HE, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    HE = HE.ravel()
+    if len(H) == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return EdgeTopology(np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64), z, z)
+    lo = np.minimum(H[:, 0], H[:, 1])
+    hi = np.maximum(H[:, 0], H[:, 1])
+    key = lo * np.int64(int(hi.max()) + 1) + hi
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    first = np.ones(len(ks), dtype=bool)
+    first[1:] = ks[1:] != ks[:-1]
+    HE = np.empty(len(H), dtype=np.int64)
+    HE[order] = np.cumsum(first) - 1
+    starts = np.nonzero(first)[0]
+    E = np.stack([lo[order[starts]], hi[order[starts]]], axis=1)
+    count = np.diff(np.append(starts, len(ks)))
     EF = np.full((len(E), 2), -1, dtype=np.int64)
-    order = np.argsort(HE, kind="stable")
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = HE[order][1:] != HE[order][:-1]
-    EF[HE[order][first], 0] = HF[order][first]
-    second = ~first
-    EF[HE[order][second], 1] = HF[order][second]
+    EF[:, 0] = HF[order[starts]]
+    two = count >= 2
+    EF[two, 1] = HF[order[starts[two] + 1]]
     return EdgeTopology(E.astype(np.int64), EF, count.astype(np.int64), HE)
 
 
@@ -207,8 +221,10 @@ def boundary_edges(F: np.ndarray) -> np.ndarray:
     return H[topo.count[topo.HE] == 1]
 
 
-def boundary_loops(F: np.ndarray) -> list[np.ndarray]:
+def boundary_loops(F: np.ndarray, name: str = "mesh") -> list[np.ndarray]:
     """Boundary loops as arrays of vertex indices, longest first, oriented as their faces.
+
+    ``name`` is the input named in errors.
 
     Raises
     ------
@@ -221,7 +237,7 @@ def boundary_loops(F: np.ndarray) -> list[np.ndarray]:
     nxt = {}
     for a, b in B.tolist():
         if a in nxt:
-            raise MeshError("mesh", f"vertex {a} is non-manifold (two boundary edges leave it)")
+            raise MeshError(name, f"vertex {a} is non-manifold (two boundary edges leave it)")
         nxt[a] = b
     loops = []
     seen = set()
@@ -233,7 +249,7 @@ def boundary_loops(F: np.ndarray) -> list[np.ndarray]:
         v = nxt[start]
         while v != start:
             if v in seen or v not in nxt:
-                raise MeshError("mesh", f"boundary is not a simple loop at vertex {v}")
+                raise MeshError(name, f"boundary is not a simple loop at vertex {v}")
             loop.append(v)
             seen.add(v)
             v = nxt[v]
