@@ -229,10 +229,11 @@ def _closest_on_triangle_edges(P, A, B, C):
 class _SampleIndex:
     """k-d tree over sample points standing for primitives, each sample within ``radius`` of its primitive part."""
 
-    def __init__(self, samples: np.ndarray, owner: np.ndarray, radius: float):
+    def __init__(self, samples: np.ndarray, owner: np.ndarray, sample_radius: np.ndarray):
         self.tree = cKDTree(samples, balanced_tree=False, compact_nodes=False)
         self.owner = owner
-        self.radius = float(radius)
+        self.sample_radius = np.asarray(sample_radius, dtype=np.float64)
+        self.radius = float(self.sample_radius.max()) if len(self.sample_radius) else 0.0
         self.size = len(samples)
 
     def nearest(self, P: np.ndarray, exact, n_primitives: int, k0: int = 8):
@@ -279,9 +280,32 @@ class _SampleIndex:
                 dist, idx = self.tree.query(P[rows], k=k)
                 if k == 1:
                     dist, idx = dist[:, None], idx[:, None]
-                prim = self.owner[idx[:, k_done:]]
-                d2, extra = exact(np.repeat(rows, prim.shape[1]), prim.ravel())
-                update(rows, prim, d2.reshape(prim.shape), extra)
+                if k_done == 0:  # an upper bound from the nearest sample's primitive
+                    prim0 = self.owner[idx[:, :1]]
+                    d2, extra = exact(rows, prim0[:, 0])
+                    update(rows, prim0, d2[:, None], extra)
+                    start = 1
+                else:
+                    start = k_done
+                # exact distances only where the sample's lower bound |p - s| - r_s beats the best so far
+                lb = dist[:, start:] - self.sample_radius[idx[:, start:]]
+                ub = np.sqrt(best_d2[rows])
+                cand = lb < ub[:, None] * (1.0 + 1e-12)
+                r_i, c_i = np.nonzero(cand)
+                if len(r_i):
+                    prim = self.owner[idx[:, start:]]
+                    d2, extra = exact(rows[r_i], prim[r_i, c_i])
+                    D2 = np.full(cand.shape, np.inf)
+                    D2[r_i, c_i] = d2
+                    # map the evaluated pairs' extras to a dense (row, column) layout for update()
+                    pos = np.full(cand.shape, 0, dtype=np.int64)
+                    pos[r_i, c_i] = np.arange(len(r_i))
+                    j = np.argmin(D2, axis=1)
+                    rr = np.arange(len(rows))
+                    has = np.isfinite(D2[rr, j])
+                    sel = pos[rr, j][has]
+                    update(rows[has], prim[rr, j][has][:, None], D2[rr, j][has][:, None],
+                           tuple(e[sel] for e in extra))
                 bound = (np.sqrt(best_d2[rows]) + self.radius) * (1.0 + 1e-12)
                 failed.append(rows[~(dist[:, -1] > bound)])
             todo = np.concatenate(failed)
@@ -300,7 +324,7 @@ class _SampleIndex:
 
 
 def _triangle_samples(A, B, C, target: float):
-    """Sample points (sub-triangle centroids) covering each triangle, their owners and the covering radius."""
+    """Sample points (sub-triangle centroids) covering each triangle, their owners and covering radii."""
     G = (A + B + C) / 3.0
     r = np.sqrt(np.max(np.stack([np.einsum("ij,ij->i", X - G, X - G) for X in (A, B, C)], axis=1), axis=1))
     if target <= 0 or not np.isfinite(target):
@@ -309,7 +333,7 @@ def _triangle_samples(A, B, C, target: float):
         level = np.clip(np.ceil(r / target), 1, _MAX_LEVEL).astype(np.int64)
     samples = [G[level == 1]]
     owner = [np.nonzero(level == 1)[0]]
-    radius = float(np.max(r[level == 1])) if np.any(level == 1) else 0.0
+    radius = [r[level == 1]]
     for n in np.unique(level[level > 1]):
         tri = np.nonzero(level == n)[0]
         # barycentric (i, j) offsets of the n² sub-triangle centroids, in units of 1/n
@@ -322,8 +346,8 @@ def _triangle_samples(A, B, C, target: float):
         S = a[:, None, :] + u[None, :, None] * ab[:, None, :] + v[None, :, None] * ac[:, None, :]
         samples.append(S.reshape(-1, 3))
         owner.append(np.repeat(tri, len(u)))
-        radius = max(radius, float(np.max(r[tri])) / n)
-    return np.concatenate(samples), np.concatenate(owner), radius
+        radius.append(np.repeat(r[tri] / n, len(u)))
+    return np.concatenate(samples), np.concatenate(owner), np.concatenate(radius)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -543,7 +567,7 @@ class PolylineIndex:
         start = np.cumsum(level) - level
         local = (np.arange(len(owner)) - start[owner] + 0.5) / level[owner]
         S = self.A[owner] + local[:, None] * (self.B - self.A)[owner]
-        self._index = _SampleIndex(S, owner, float(np.max(0.5 * L / level)))
+        self._index = _SampleIndex(S, owner, (0.5 * L / level)[owner])
 
     def query(self, P, name: str = "points") -> PolylineClosestPoints:
         """Closest points on the polyline of every query point (see :class:`PolylineClosestPoints`)."""
