@@ -16,6 +16,12 @@ and the ratios *overhead beyond rhino3dm's call / rhino3dm's call*: for the
 slow path the Python loops and JSON (``slow - Encode``, ``slow - Decode``);
 for our path everything it does (it makes no rhino3dm call), divided by
 rhino3dm's ``Encode`` or ``Decode`` time respectively.
+
+A second table does the same for a coloured, unwelded display mesh of about
+100k vertices (every triangle of a wavy grid with its own three vertices and
+an RGB colour per vertex): rhino3dm's path adds a ``VertexColors.Add`` loop
+(and reads the colours back item by item), ours passes ``colors=`` to
+``write_mesh`` and reads with ``read_mesh_colors``.
 """
 from __future__ import annotations
 
@@ -30,7 +36,7 @@ import rhino3dm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ghserver._onmesh import read_mesh, write_mesh  # noqa: E402
+from ghserver._onmesh import read_mesh, read_mesh_colors, write_mesh  # noqa: E402
 
 REPEATS = 9
 SLOW_REPEATS = 3
@@ -55,8 +61,21 @@ def triangle_soup(n_vertices: int, seed: int = 0) -> tuple[np.ndarray, np.ndarra
     return V, np.concatenate([T, T[:, 2:3]], axis=1)
 
 
-def build_slow(V: np.ndarray, F: np.ndarray) -> rhino3dm.Mesh:
-    """rhino3dm Mesh built vertex by vertex (double precision)."""
+def unwelded_display_mesh(n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wavy grid split into triangles that do not share vertices, coloured by height (RGB uint8)."""
+    Vg, Q = wavy_grid(int((np.sqrt(n_vertices / 6) + 1) ** 2))  # 2 triangles = 6 vertices per quad
+    T = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]])
+    V = Vg[T.reshape(-1)]
+    m = len(T)
+    F = np.arange(3 * m).reshape(m, 3)
+    F = np.concatenate([F, F[:, 2:3]], axis=1)
+    t = (V[:, 2] - V[:, 2].min()) / np.ptp(V[:, 2])
+    C = np.stack([255 * t, 255 * (1 - np.abs(2 * t - 1)), 255 * (1 - t)], axis=-1).round().astype(np.uint8)
+    return V, F, C
+
+
+def build_slow(V: np.ndarray, F: np.ndarray, C: np.ndarray | None = None) -> rhino3dm.Mesh:
+    """rhino3dm Mesh built vertex by vertex (double precision), optionally with vertex colours."""
     mesh = rhino3dm.Mesh()
     mesh.Vertices.UseDoublePrecisionVertices = True
     add = mesh.Vertices.AddPoint3d
@@ -65,6 +84,10 @@ def build_slow(V: np.ndarray, F: np.ndarray) -> rhino3dm.Mesh:
     addf = mesh.Faces.AddFace
     for a, b, c, d in F.tolist():
         addf(a, b, c, d)
+    if C is not None:
+        addc = mesh.VertexColors.Add
+        for r, g, b in C.tolist():
+            addc(r, g, b)
     return mesh
 
 
@@ -74,6 +97,14 @@ def read_slow(mesh) -> tuple[np.ndarray, np.ndarray]:
     faces = mesh.Faces
     F = np.array([faces[i] for i in range(len(faces))], dtype=np.int64)
     return V, F
+
+
+def read_slow_colors(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices, faces and RGBA vertex colours read back through rhino3dm objects."""
+    V, F = read_slow(mesh)
+    vc = mesh.VertexColors
+    C = np.array([vc[i] for i in range(len(vc))], dtype=np.uint8)
+    return V, F, C
 
 
 def median_times(fns: dict, repeats: int) -> dict:
@@ -119,6 +150,45 @@ def bench(name: str, V: np.ndarray, F: np.ndarray) -> dict:
     return row
 
 
+def bench_colors(name: str, V: np.ndarray, F: np.ndarray, C: np.ndarray) -> dict:
+    mesh = build_slow(V, F, C)
+    encoded = mesh.Encode()
+    text_rh = json.dumps(encoded)
+    text_ours = json.dumps(write_mesh(V, F, C))
+    C4 = np.concatenate([C, np.full((len(C), 1), 255, np.uint8)], axis=1)
+
+    # correctness guard: byte identity at rhino3dm's level, exact colours both ways
+    assert write_mesh(V, F, C, compress_level=9)["data"] == encoded["data"]
+    Vr, Fr, Cr = read_slow_colors(rhino3dm.CommonObject.Decode(json.loads(text_ours)))
+    assert np.array_equal(Vr, V) and np.array_equal(Fr, F) and np.array_equal(Cr, C4)
+    Vo, Fo, Co = read_mesh_colors(json.loads(text_rh))
+    assert np.array_equal(Vo, V) and np.array_equal(Fo, F) and np.array_equal(Co, C4)
+
+    def color_loop():
+        m = rhino3dm.Mesh()
+        addc = m.VertexColors.Add
+        for r, g, b in C.tolist():
+            addc(r, g, b)
+
+    row = {"name": name, "nv": len(V), "nf": len(F)}
+    row.update(median_times({
+        "encode": mesh.Encode,
+        "decode": lambda: rhino3dm.CommonObject.Decode(encoded),
+        "ours_write": lambda: json.dumps(write_mesh(V, F, C)),
+        "ours_write_z9": lambda: json.dumps(write_mesh(V, F, C, compress_level=9)),
+        "ours_read": lambda: read_mesh_colors(json.loads(text_ours)),
+        "ours_read_rh": lambda: read_mesh_colors(json.loads(text_rh)),
+    }, REPEATS))
+    row.update(median_times({
+        "color_loop": color_loop,
+        "slow_write": lambda: json.dumps(build_slow(V, F, C).Encode()),
+        "slow_read": lambda: read_slow_colors(rhino3dm.CommonObject.Decode(json.loads(text_rh))),
+    }, SLOW_REPEATS))
+    row["kb_rh"] = len(text_rh) / 1024
+    row["kb_ours"] = len(text_ours) / 1024
+    return row
+
+
 def main() -> None:
     rows = []
     for n in (10_000, 100_000):
@@ -148,6 +218,27 @@ rd(rh)          json.loads + read_mesh of rhino3dm's compressed output (what Rhi
 wr z1           write_mesh(compress_level=1) + json.dumps, for comparison
 slow/Enc, /Dec  overhead of the slow path beyond rhino3dm's call, relative to that call
 wr/Enc, rd/Dec  our whole path (it makes no rhino3dm call, JSON included) relative to rhino3dm's call""")
+
+    r = bench_colors("unwelded+RGB", *unwelded_display_mesh(100_000))
+    enc, dec = r["encode"], r["decode"]
+    print("\nvertex colours (RGB per vertex), times in ms\n")
+    head = (f"{'mesh':<15} {'verts':>6} {'faces':>6} | {'Encode':>6} {'Decode':>6} | {'Add loop':>8} "
+            f"{'slow wr':>7} {'slow rd':>7} | {'ours wr':>7} {'wr z9':>6} {'ours rd':>7} {'rd(rh)':>6} | "
+            f"{'slow/Enc':>8} {'slow/Dec':>8} | {'wr/Enc':>6} {'rd/Dec':>6} {'rd(rh)/Dec':>10} | "
+            f"{'KB rh':>5} {'KB ours':>7}")
+    print(head)
+    print("-" * len(head))
+    print(f"{r['name']:<15} {r['nv']:>6} {r['nf']:>6} | {enc * ms:6.1f} {dec * ms:6.1f} | {r['color_loop'] * ms:8.1f} "
+          f"{r['slow_write'] * ms:7.1f} {r['slow_read'] * ms:7.1f} | {r['ours_write'] * ms:7.1f} "
+          f"{r['ours_write_z9'] * ms:6.1f} {r['ours_read'] * ms:7.1f} {r['ours_read_rh'] * ms:6.1f} | "
+          f"{(r['slow_write'] - enc) / enc:8.2f} {(r['slow_read'] - dec) / dec:8.2f} | "
+          f"{r['ours_write'] / enc:6.3f} {r['ours_read'] / dec:6.3f} {r['ours_read_rh'] / dec:10.3f} | "
+          f"{r['kb_rh']:5.0f} {r['kb_ours']:7.0f}")
+    print("""
+Add loop        the VertexColors.Add(r, g, b) loop alone (part of slow wr)
+slow wr/rd      as above, plus the VertexColors.Add loop / reading mesh.VertexColors[i] item by item
+ours wr, wr z9  write_mesh(V, F, colors) + json.dumps, uncompressed / compress_level=9 (rhino3dm's bytes)
+ours rd, rd(rh) json.loads + read_mesh_colors of our uncompressed / rhino3dm's compressed output""")
 
 
 if __name__ == "__main__":

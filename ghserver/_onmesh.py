@@ -39,6 +39,14 @@ A compressed buffer is ``uint32 size``; when non-zero it is followed by
 openNURBS compresses buffers larger than 128 bytes unless the archive was
 told not to (``ON_BinaryArchive::SetUseBufferCompression(false)``); readers
 accept either method for any size.
+
+Vertex colours are an array of ``ON_Color``, 4 bytes per vertex in the byte
+order red, green, blue, *transparency* (``ON_Color::kRedByteIndex`` = 0 ...
+``kAlphaByteIndex`` = 3 on every platform; openNURBS' "alpha" byte is 0 for
+opaque).  rhino3dm and RhinoCommon report ``alpha = 255 - byte``, so
+``VertexColors.Add(r, g, b)`` stores ``r g b 00`` and reads back as
+``(r, g, b, 255)``.  The buffer is written only when there is one colour per
+vertex.
 """
 from __future__ import annotations
 
@@ -50,7 +58,7 @@ import zlib
 
 import numpy as np
 
-__all__ = ["read_mesh", "write_mesh"]
+__all__ = ["read_mesh", "read_mesh_colors", "write_mesh"]
 
 logger = logging.getLogger(__name__)
 
@@ -308,8 +316,12 @@ def _decode_payload(obj: dict) -> bytes:
     return binascii.a2b_base64(data, strict_mode=True)
 
 
-def _read_mesh_record(r: _Reader) -> tuple[np.ndarray, np.ndarray]:
-    """Parse the body of a ``TCODE_OPENNURBS_CLASS_DATA`` chunk holding an ON_Mesh."""
+def _read_mesh_record(r: _Reader, colors: bool = False):
+    """Parse the body of a ``TCODE_OPENNURBS_CLASS_DATA`` chunk holding an ON_Mesh.
+
+    Returns ``(V, F, C)``; ``C`` is ``None`` unless ``colors`` is true and the
+    mesh has vertex colours (then ``(n, 4)`` uint8 RGBA, alpha 255 = opaque).
+    """
     buf = r.buf
     version = r.u8()
     if (version >> 4, version & 15) != (_MESH_MAJOR, _MESH_MINOR):
@@ -338,13 +350,18 @@ def _read_mesh_record(r: _Reader) -> tuple[np.ndarray, np.ndarray]:
 
     # vertices, normals, texture coordinates, curvatures, colours
     fV = None
+    C = None
     if vcount > 0:
         data = r.compressed_buffer(12 * vcount)
         if data is None:
             raise _Invalid("mesh has vertices but no vertex buffer")
         fV = np.frombuffer(data, dtype="<f4").reshape(vcount, 3)
-        for elem in (12, 8, 16, 4):
+        for elem in (12, 8, 16):  # normals, texture coordinates, curvatures
             r.compressed_buffer(elem * vcount, decode=False)
+        data = r.compressed_buffer(4 * vcount, decode=colors)
+        if data is not None:
+            C = np.frombuffer(data, dtype=np.uint8).reshape(vcount, 4).copy()
+            C[:, 3] = 255 - C[:, 3]  # openNURBS transparency -> alpha
 
     r.skip(4)  # packed texture rotation flag
     r.skip(16)  # texture mapping id
@@ -366,7 +383,7 @@ def _read_mesh_record(r: _Reader) -> tuple[np.ndarray, np.ndarray]:
             raise _Invalid("double precision vertex count differs from vertex count")
         _check_double_vertices(dV, fV)
         V = dV
-    return V, F
+    return V, F, C
 
 
 def _read_mapping_tag(r: _Reader) -> None:
@@ -434,6 +451,35 @@ def _check_double_vertices(dV: np.ndarray, fV: np.ndarray | None) -> None:
         raise _Invalid("float and double precision vertices disagree")
 
 
+def _read(obj: dict, colors: bool, name: str):
+    """Shared body of :func:`read_mesh` and :func:`read_mesh_colors`."""
+    try:
+        buf = _decode_payload(obj)
+        r = _Reader(buf)
+        _, length = r.begin(_TCODE_CLASS)
+        if r.pos + length != len(buf):
+            raise _Invalid("object chunk does not span the whole payload")
+        _, length = r.begin(_TCODE_CLASS_UUID)
+        if length != 20 or bytes(r.raw(16)) != _MESH_UUID:
+            raise _Invalid("not an ON_Mesh")
+        r.end()
+        r.begin(_TCODE_CLASS_DATA)
+        result = _read_mesh_record(r, colors)
+        r.end()
+        typecode, value = r.begin()  # a short chunk is complete after begin()
+        if typecode != _TCODE_CLASS_END or value != 0:
+            # TCODE_OPENNURBS_CLASS_USERDATA or anything else: leave it to rhino3dm
+            raise _Invalid(f"unsupported chunk 0x{typecode:08X} after mesh data")
+        r.end()  # TCODE_OPENNURBS_CLASS, which spans the whole payload
+        return result
+    except _Invalid as exc:
+        logger.debug("%s: falling back (%s)", name, exc)
+    except (ValueError, TypeError, KeyError, IndexError, OverflowError, MemoryError,
+            struct.error, zlib.error, binascii.Error) as exc:  # defensive: never raise on garbage
+        logger.debug("%s: falling back (%s: %s)", name, type(exc).__name__, exc)
+    return None
+
+
 def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
     """Read vertices and faces from a JSON-encoded openNURBS mesh.
 
@@ -457,33 +503,26 @@ def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
     Notes
     -----
     Normals, texture coordinates, colours, surface parameters, curvatures,
-    mesh parameters and n-gons are checked structurally and skipped.
+    mesh parameters and n-gons are checked structurally and skipped; use
+    :func:`read_mesh_colors` to get the vertex colours as well.
     """
-    try:
-        buf = _decode_payload(obj)
-        r = _Reader(buf)
-        _, length = r.begin(_TCODE_CLASS)
-        if r.pos + length != len(buf):
-            raise _Invalid("object chunk does not span the whole payload")
-        _, length = r.begin(_TCODE_CLASS_UUID)
-        if length != 20 or bytes(r.raw(16)) != _MESH_UUID:
-            raise _Invalid("not an ON_Mesh")
-        r.end()
-        r.begin(_TCODE_CLASS_DATA)
-        V, F = _read_mesh_record(r)
-        r.end()
-        typecode, value = r.begin()  # a short chunk is complete after begin()
-        if typecode != _TCODE_CLASS_END or value != 0:
-            # TCODE_OPENNURBS_CLASS_USERDATA or anything else: leave it to rhino3dm
-            raise _Invalid(f"unsupported chunk 0x{typecode:08X} after mesh data")
-        r.end()  # TCODE_OPENNURBS_CLASS, which spans the whole payload
-        return V, F
-    except _Invalid as exc:
-        logger.debug("read_mesh: falling back (%s)", exc)
-    except (ValueError, TypeError, KeyError, IndexError, OverflowError, MemoryError,
-            struct.error, zlib.error, binascii.Error) as exc:  # defensive: never raise on garbage
-        logger.debug("read_mesh: falling back (%s: %s)", type(exc).__name__, exc)
-    return None
+    result = _read(obj, False, "read_mesh")
+    return None if result is None else result[:2]
+
+
+def read_mesh_colors(obj: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """Like :func:`read_mesh`, plus the per-vertex colours.
+
+    Returns
+    -------
+    tuple or None
+        ``(V, F, C)``: ``V`` and ``F`` as from :func:`read_mesh`; ``C`` is a
+        ``(n, 4)`` uint8 array of RGBA colours (alpha 255 = opaque, as
+        rhino3dm's ``mesh.VertexColors[i]`` reports them) or ``None`` when
+        the mesh has no vertex colours.  ``None`` instead of the tuple
+        whenever :func:`read_mesh` returns ``None``.  Never raises.
+    """
+    return _read(obj, True, "read_mesh_colors")
 
 
 # ---------------------------------------------------------------------------
@@ -569,13 +608,32 @@ def _as_mesh_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-def write_mesh(V, F, *, compress_level: int | None = None) -> dict:
+def _as_color_bytes(colors, n: int) -> bytes:
+    """Validate ``colors`` of :func:`write_mesh`; return the ``ON_Color`` array bytes."""
+    C = np.asarray(colors)
+    if C.ndim != 2 or C.shape[1] not in (3, 4):
+        raise ValueError(f"colors must have shape (n, 3) or (n, 4), got {C.shape}")
+    if C.shape[0] != n:
+        raise ValueError(f"colors has {C.shape[0]} rows for {n} vertices")
+    if C.dtype != np.uint8:
+        if C.size and not np.issubdtype(C.dtype, np.integer):
+            raise ValueError(f"colors must be uint8 (or integers 0..255), got {C.dtype}")
+        if C.size and (C.min() < 0 or C.max() > 255):
+            raise ValueError("colors out of the range 0..255")
+    out = np.zeros((n, 4), dtype=np.uint8)  # transparency 0 = opaque when no alpha is given
+    out[:, :3] = C[:, :3]
+    if C.shape[1] == 4:
+        np.subtract(255, C[:, 3], out=out[:, 3], casting="unsafe")  # alpha -> openNURBS transparency
+    return out.tobytes()
+
+
+def write_mesh(V, F, colors=None, *, compress_level: int | None = None) -> dict:
     """Encode vertices and faces as a JSON-ready openNURBS mesh.
 
     The result has the layout of rhino3dm's ``Mesh.Encode()`` for a mesh with
     double precision vertices (archive 60, ON_Mesh chunk version 3.8, no
     normals, no user data); ``rhino3dm.CommonObject.Decode`` and RhinoCommon
-    read it back with exactly these vertices and faces.
+    read it back with exactly these vertices, faces and colours.
 
     Parameters
     ----------
@@ -585,6 +643,10 @@ def write_mesh(V, F, *, compress_level: int | None = None) -> dict:
     F : array_like of int, shape (m, 4) or (m, 3)
         Faces; a triangle is ``(a, b, c, c)``, an ``(m, 3)`` array is padded
         that way.
+    colors : array_like of uint8, shape (n, 3) or (n, 4), optional
+        Per-vertex RGB or RGBA colours (alpha 255 = opaque, the default for
+        RGB), as rhino3dm's ``mesh.VertexColors[i]`` reports them.  Integer
+        arrays with values 0..255 are accepted too; floats are rejected.
     compress_level : int or None, optional
         ``None`` (default) stores the vertex buffers raw, as openNURBS does
         for an archive with buffer compression disabled; this is several
@@ -600,10 +662,12 @@ def write_mesh(V, F, *, compress_level: int | None = None) -> dict:
     ------
     ValueError
         On malformed input: wrong shapes, non-finite or out-of-float-range
-        coordinates, face indices out of range.
+        coordinates, face indices out of range, a colour count other than
+        the vertex count, colours that are not integers 0..255.
     """
     V, F = _as_mesh_arrays(V, F)
     vcount, fcount = V.shape[0], F.shape[0]
+    cbytes = None if colors is None else _as_color_bytes(colors, vcount)
     if compress_level is not None and not 0 <= compress_level <= 9:
         raise ValueError("compress_level must be None or 0..9")
 
@@ -633,7 +697,11 @@ def write_mesh(V, F, *, compress_level: int | None = None) -> dict:
         w.write(np.ascontiguousarray(F, dtype=dtype).tobytes())
     if vcount:
         w.compressed_buffer(V.astype("<f4").tobytes(), compress_level)
-        w.write(bytes(16))  # no normals, texture coordinates, curvatures, colours
+        w.write(bytes(12))  # no normals, texture coordinates, curvatures
+        if cbytes is None:
+            w.write(bytes(4))  # no colours
+        else:
+            w.compressed_buffer(cbytes, compress_level)
     w.write(bytes(4 + 16))  # packed texture rotation, texture mapping id
     if vcount:
         w.write(bytes(4))  # no surface parameters

@@ -14,7 +14,7 @@ rhino3dm = pytest.importorskip("rhino3dm")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from ghserver._onmesh import _check_double_vertices, _Invalid, read_mesh, write_mesh  # noqa: E402
+from ghserver._onmesh import _check_double_vertices, _Invalid, read_mesh, read_mesh_colors, write_mesh  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 
@@ -46,6 +46,34 @@ def rh_mesh(V, F, *, double: bool = True):
         else:
             mesh.Faces.AddFace(*face)
     return mesh
+
+
+def rh_colors(mesh) -> np.ndarray:
+    """Vertex colours as rhino3dm reports them: ``(n, 4)`` uint8 RGBA, alpha 255 = opaque."""
+    vc = mesh.VertexColors
+    return np.array([vc[i] for i in range(len(vc))], dtype=np.uint8).reshape(-1, 4)
+
+
+def rh_set_colors(mesh, C) -> None:
+    """Colour a rhino3dm mesh: RGB through ``VertexColors.Add``, RGBA through item assignment."""
+    C = np.asarray(C)
+    for r, g, b in C[:, :3].tolist():
+        mesh.VertexColors.Add(r, g, b)
+    if C.shape[1] == 4:
+        for i, c in enumerate(C.tolist()):
+            mesh.VertexColors[i] = tuple(c)
+
+
+def random_colors(n: int, channels: int, seed: int = 5) -> np.ndarray:
+    C = np.random.default_rng(seed).integers(0, 256, size=(n, channels), dtype=np.uint8)
+    if n >= 2:  # make sure the extremes occur
+        C[0], C[1] = 0, 255
+    return C
+
+
+def rgba(C) -> np.ndarray:
+    C = np.asarray(C, dtype=np.uint8)
+    return C if C.shape[1] == 4 else np.concatenate([C, np.full((len(C), 1), 255, np.uint8)], axis=1)
 
 
 def decode(obj) -> tuple[np.ndarray, np.ndarray]:
@@ -293,6 +321,10 @@ def test_mesh_with_normals_and_colours():
     obj = mesh.Encode()
     assert_same(read_mesh(obj), rh_view(rhino3dm.CommonObject.Decode(obj)))
     assert_same(read_mesh(obj), (V, F))
+    V2, F2, C = read_mesh_colors(obj)
+    assert_same((V2, F2), (V, F))
+    np.testing.assert_array_equal(C, rh_colors(rhino3dm.CommonObject.Decode(obj)))
+    assert C[5].tolist() == [5, 15, 7, 255]
 
 
 def test_mesh_with_explicit_normals_small():
@@ -352,6 +384,132 @@ def test_mesh_with_ngons_is_read():
 
 
 # ----------------------------------------------------------------------------------------------
+# vertex colours
+
+
+COLOR_CASES = ["one triangle", "one quad", "grid 6x5 (uint8 indices)", "grid 16x16 (256 vertices, uint16 indices)",
+               "soup 200", "grid 256x257 (65792 vertices, int32 indices)"]
+
+
+def test_rhino3dm_colour_conventions():
+    """rhino3dm reports ON_Color as (r, g, b, 255 - transparency byte); Add(r, g, b) is opaque."""
+    V, F = CASES["one triangle"]
+    mesh = rh_mesh(V, F)
+    for c in [(10, 20, 30), (40, 50, 60), (70, 80, 90)]:
+        mesh.VertexColors.Add(*c)
+    mesh.VertexColors[1] = (41, 51, 61, 4)
+    assert len(mesh.VertexColors) == 3
+    assert mesh.VertexColors[0] == (10, 20, 30, 255) and mesh.VertexColors[1] == (41, 51, 61, 4)
+    data = payload(mesh.Encode())
+    assert bytes([10, 20, 30, 0, 41, 51, 61, 251, 70, 80, 90, 0]) in data
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+@pytest.mark.parametrize("level", [None, 1, 9])
+@pytest.mark.parametrize("name", COLOR_CASES)
+def test_write_colors_decoded_by_rhino3dm(name, level, channels):
+    V, F = CASES[name]
+    C = random_colors(len(V), channels)
+    obj = write_mesh(V, F, C, compress_level=level)
+    mesh = rhino3dm.CommonObject.Decode(json.loads(json.dumps(obj)))
+    assert isinstance(mesh, rhino3dm.Mesh) and mesh.IsValid
+    assert_same(rh_view(mesh), (V, F))
+    assert len(mesh.VertexColors) == len(V)
+    np.testing.assert_array_equal(rh_colors(mesh), rgba(C))
+    # our reader, on our output and on rhino3dm's re-encoding
+    for o in (obj, mesh.Encode()):
+        got = read_mesh_colors(o)
+        assert_same(got[:2], (V, F))
+        assert got[2].dtype == np.uint8 and got[2].shape == (len(V), 4)
+        np.testing.assert_array_equal(got[2], rgba(C))
+        assert_same(read_mesh(o), (V, F))  # read_mesh is unchanged: two arrays, colours skipped
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+@pytest.mark.parametrize("name", COLOR_CASES)
+def test_write_colors_match_rhino3dm_bytes(name, channels):
+    V, F = CASES[name]
+    C = random_colors(len(V), channels)
+    mesh = rh_mesh(V, F)
+    rh_set_colors(mesh, C)
+    assert_same_envelope(write_mesh(V, F, C, compress_level=9), mesh.Encode())
+    assert_same_envelope(write_mesh(V, F, colors=C, compress_level=9), mesh.Encode())
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+@pytest.mark.parametrize("name", ["one quad", "mixed 30x30", "soup 200"])
+def test_read_colors_of_rhino3dm_meshes(name, channels):
+    V, F = CASES[name]
+    for double in (True, False):
+        C = random_colors(len(V), channels, seed=9)
+        mesh = rh_mesh(V, F, double=double)
+        rh_set_colors(mesh, C)
+        obj = mesh.Encode()
+        got = read_mesh_colors(obj)
+        assert_same(got[:2], rh_view(mesh))
+        np.testing.assert_array_equal(got[2], rgba(C))
+        np.testing.assert_array_equal(got[2], rh_colors(rhino3dm.CommonObject.Decode(obj)))
+
+
+def test_read_colors_absent_is_none():
+    V, F = CASES["grid 6x5 (uint8 indices)"]
+    for obj in (write_mesh(V, F), rh_mesh(V, F).Encode()):
+        got = read_mesh_colors(obj)
+        assert len(got) == 3 and got[2] is None
+        assert_same(got[:2], (V, F))
+    got = read_mesh_colors(rhino3dm.Mesh().Encode())
+    assert got[0].shape == (0, 3) and got[1].shape == (0, 4) and got[2] is None
+
+
+def test_read_colors_writable_and_integer_input():
+    V, F = CASES["one quad"]
+    C = [[1, 2, 3], [4, 5, 6], [7, 8, 9], [250, 251, 252]]  # python ints are accepted
+    assert write_mesh(V, F, C) == write_mesh(V, F, np.array(C, dtype=np.uint8))
+    _, _, got = read_mesh_colors(write_mesh(V, F, np.array(C, dtype=np.int64)))
+    np.testing.assert_array_equal(got, rgba(np.array(C)))
+    got[0, 0] = 99  # a copy, not a view into the archive
+
+
+def test_write_empty_with_colors_matches_rhino3dm():
+    obj = write_mesh(np.zeros((0, 3)), np.zeros((0, 4), dtype=int), np.zeros((0, 3), np.uint8), compress_level=9)
+    assert_same_envelope(obj, rhino3dm.Mesh().Encode())
+
+
+@pytest.mark.parametrize(
+    "colors",
+    [
+        np.zeros((3, 3), np.uint8),  # one row short
+        np.zeros((5, 3), np.uint8),  # one row too many
+        np.zeros((4, 2), np.uint8),
+        np.zeros((4, 5), np.uint8),
+        np.zeros(12, np.uint8),
+        np.zeros((4, 3)),  # floats are ambiguous (0..1 or 0..255)
+        np.zeros((4, 3), bool),
+        np.full((4, 3), 256),
+        np.full((4, 4), -1),
+    ],
+)
+def test_write_rejects_bad_colors(colors):
+    V, F = CASES["one quad"]
+    with pytest.raises(ValueError):
+        write_mesh(V, F, colors)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(random_meshes(), st.sampled_from([3, 4]), st.integers(0, 2**32 - 1), st.sampled_from([None, 9]))
+def test_property_colors_roundtrip(mesh, channels, seed, level):
+    V, F = mesh
+    C = np.random.default_rng(seed).integers(0, 256, size=(len(V), channels), dtype=np.uint8)
+    obj = write_mesh(V, F, C, compress_level=level)
+    got = read_mesh_colors(obj)
+    assert_same(got[:2], (V, F))
+    np.testing.assert_array_equal(got[2], rgba(C))
+    rh = rhino3dm.CommonObject.Decode(obj)
+    np.testing.assert_array_equal(rh_colors(rh), rgba(C))
+    np.testing.assert_array_equal(read_mesh_colors(rh.Encode())[2], rgba(C))
+
+
+# ----------------------------------------------------------------------------------------------
 # garbage, truncation, bit flips
 
 
@@ -367,6 +525,7 @@ def test_garbage_inputs_return_none():
     ]
     for obj in bad:
         assert read_mesh(obj) is None
+        assert read_mesh_colors(obj) is None
 
 
 def test_other_geometry_returns_none():
@@ -374,6 +533,41 @@ def test_other_geometry_returns_none():
                  rhino3dm.LineCurve(rhino3dm.Point3d(0, 0, 0), rhino3dm.Point3d(1, 1, 1)),
                  rhino3dm.Sphere(rhino3dm.Point3d(0, 0, 0), 2.0).ToBrep()):
         assert read_mesh(geom.Encode()) is None
+        assert read_mesh_colors(geom.Encode()) is None
+
+
+def test_coloured_mesh_with_user_data_falls_back():
+    V, F = CASES["one quad"]
+    mesh = rh_mesh(V, F)
+    rh_set_colors(mesh, random_colors(4, 3))
+    mesh.SetUserString("key", "value")
+    assert read_mesh_colors(mesh.Encode()) is None
+
+
+@pytest.mark.parametrize("level", [None, 9])
+def test_truncated_coloured_returns_none(level):
+    V, F = grid(7, 7)
+    obj = write_mesh(V, F, random_colors(len(V), 4), compress_level=level)
+    data = payload(obj)
+    for k in range(len(data)):
+        assert read_mesh_colors(with_payload(obj, data[:k])) is None
+    assert read_mesh_colors(with_payload(obj, data + b"\x00")) is None
+
+
+@pytest.mark.parametrize("level", [None, 9])
+def test_bit_flips_coloured_mesh(level):
+    """Every flipped bit in the colour buffer (or anywhere) is caught by a CRC or a structure check."""
+    V, F = grid(12, 12)
+    obj = write_mesh(V, F, random_colors(len(V), 3), compress_level=level)
+    data = bytearray(payload(obj))
+    rng = np.random.default_rng(13)
+    for i in rng.choice(len(data), size=min(1500, len(data)), replace=False).tolist():
+        bit = int(rng.integers(8))
+        data[i] ^= 1 << bit
+        assert read_mesh_colors(with_payload(obj, bytes(data))) is None, (i, bit)
+        assert read_mesh(with_payload(obj, bytes(data))) is None, (i, bit)
+        data[i] ^= 1 << bit
+    assert read_mesh_colors(with_payload(obj, bytes(data))) is not None
 
 
 @pytest.mark.parametrize("level", [None, 9])
