@@ -319,7 +319,7 @@ def crash(how: str = "exit") -> Process:
     if how == "memory":
         blocks = []
         while True:
-            blocks.append(np.ones(50_000_000))
+            blocks.append(np.empty(50_000_000))  # address space grows until the cap stops it
     return Process(0.0, os.getpid())
 
 
