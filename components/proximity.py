@@ -399,7 +399,7 @@ class TriangleIndex:
         samples, owner, radius = _triangle_samples(self.A, self.B, self.C, 2.0 * target)
         self._index = _SampleIndex(samples, owner, radius)
         self.oriented = self._is_oriented()
-        self._pseudo = None
+        self._pseudo = self._pseudonormals() if self.oriented else None
 
     def _circumradii(self):
         G = (self.A + self.B + self.C) / 3.0
@@ -419,8 +419,6 @@ class TriangleIndex:
 
     def _pseudonormals(self):
         """Face normals, edge pseudo-normals per triangle edge (AB, BC, CA) and angle-weighted vertex normals."""
-        if self._pseudo is not None:
-            return self._pseudo
         N = np.cross(self.B - self.A, self.C - self.A)
         L = np.linalg.norm(N, axis=1, keepdims=True)
         N = np.divide(N, L, out=np.zeros_like(N), where=L > 0)
@@ -438,8 +436,7 @@ class TriangleIndex:
             c = np.einsum("ij,ij->i", e1, e2) / np.maximum(n1 * n2, 1e-300)
             ang = np.arccos(np.clip(c, -1.0, 1.0))
             np.add.at(VN, self.T[:, i], ang[:, None] * N)
-        self._pseudo = (N, edge_normals, VN)  # derived once per index (the index is the build-once object)
-        return self._pseudo
+        return N, edge_normals, VN
 
     def query(self, P, signed: bool = False, name: str = "points") -> ClosestPoints:
         """Closest points on the mesh of every query point.
@@ -491,7 +488,7 @@ class TriangleIndex:
         return ClosestPoints(X, dist, faces, bary)
 
     def _sign(self, P, X, faces, code):
-        N, EN, VN = self._pseudonormals()
+        N, EN, VN = self._pseudo
         n = N[faces].copy()
         for c, corner in ((1, 0), (2, 1), (3, 2)):
             s = code == c
