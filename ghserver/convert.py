@@ -155,8 +155,12 @@ def encode_mesh(V, F, colors=None) -> str:
     """JSON text of a Rhino mesh holding ``(V, F)`` (and per-vertex RGB ``colors`` (n, 3) uint8 if given)."""
     V = np.asarray(V, dtype=np.float64)
     F4 = _rhino_faces(F)
-    if _onmesh is not None and colors is None:
-        return json.dumps(_onmesh.write_mesh(V, F4))
+    if colors is not None:
+        colors = np.asarray(colors)
+        if colors.dtype != np.uint8:
+            colors = np.clip(np.rint(colors), 0, 255).astype(np.uint8)
+    if _onmesh is not None:
+        return json.dumps(_onmesh.write_mesh(V, F4, colors))
     return encode_object(arrays_to_mesh(V, F4, colors))
 
 

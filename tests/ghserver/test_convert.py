@@ -158,3 +158,11 @@ def test_surface_round_trip_matches_rhino3dm():
     brep = rhino3dm.Brep.CreateFromSurface(rs)
     from_brep = convert.decode_surface(json.dumps(brep.Encode()))
     assert np.allclose(from_brep.points, P, atol=1e-12)
+
+
+def test_mesh_with_vertex_colours_reaches_rhino():
+    V, Q = quad_grid(3, 2)
+    C = (np.arange(len(V) * 3).reshape(-1, 3) % 256).astype(np.uint8)
+    mesh = rhino3dm.CommonObject.Decode(json.loads(convert.encode_mesh(V, Q, C)))
+    assert len(mesh.VertexColors) == len(V)
+    assert [tuple(mesh.VertexColors[i])[:3] for i in range(len(V))] == [tuple(c) for c in C.tolist()]
