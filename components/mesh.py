@@ -428,11 +428,11 @@ def validate_mesh(
             e = int(np.argmax(topo.count > 2))
             a, b = topo.E[e].tolist()
             raise MeshError(name, f"edge ({a}, {b}) is non-manifold: it has {int(topo.count[e])} faces")
-        # consistent orientation: each directed half-edge appears once
-        _, cnt = np.unique(H, axis=0, return_counts=True)
-        if np.any(cnt > 1):
-            Hd, c = np.unique(H, axis=0, return_counts=True)
-            a, b = Hd[np.argmax(c > 1)].tolist()
+        # consistent orientation: each directed half-edge appears once (one int64 key per half-edge)
+        dkey = np.sort(H[:, 0] * np.int64(len(V)) + H[:, 1])
+        twice = np.nonzero(dkey[1:] == dkey[:-1])[0]
+        if len(twice):
+            a, b = divmod(int(dkey[twice[0]]), len(V))
             raise MeshError(
                 name, f"faces are not consistently oriented: edge ({a}, {b}) is used twice in the same direction"
             )

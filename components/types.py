@@ -26,7 +26,9 @@ annotation         Python value                                    Grasshopper p
 ``Curve``          (n, 3) polyline array or :class:`NurbsCurve`    Curve (item)
 ``Curves``         list of Curve values                            Curve (list)
 ``Surface``        :class:`NurbsSurface`                           Surface (item, input only)
-``Mesh``           ``(V, F)``: (n, 3) float64, (m, k) int64        Mesh (item)
+``Mesh``           ``(V, F)``: (n, 3) float64, (m, k) int64;       Mesh (item)
+                   an output may add colours ``(V, F, C)``,
+                   ``C`` (n, 3) uint8 RGB per vertex
 ``Meshes``         list of ``(V, F)``                              Mesh (list)
 ``Tree[X]``        dict ``{path tuple: list of X values}``         X with tree access
 =================  ==============================================  =====================
