@@ -1,0 +1,144 @@
+"""Benchmark: our planarization solver beside libigl's ``planarize_quad_mesh`` in the same run.
+
+Meshes: regular quad grids laid on z = 0.3 sin x cos y with quads of size 0.7 (start max planarity ≈ 0.07) at 2,500,
+10,000 and 100,000 quads, and libigl's ``inspired_mesh_quads_Conjugate.off``. Our solver runs with a free boundary
+and no closeness goal (what libigl solves: ShapeUp local/global, no closeness, no fixed vertices) and, for the real
+mesh, also with its default goals against the input as reference.
+
+libigl is very slow, so by default it runs a bounded number of iterations (``--igl-iters``, default 50 on 2,500
+quads, scaled down for larger meshes, skipped on 100k); ``--full`` runs the long reference (2,000 iterations; many
+minutes). Our times are the median of ``--repeats`` runs; "t→1e-3" / "t→1e-4" are read from the per-iteration
+history of the median run. Memory is the peak resident size of a child process that runs only our solver on the
+largest mesh.
+
+Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k]``
+"""
+from __future__ import annotations
+
+import argparse
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from components.mesh import edge_lengths, edge_topology, quad_grid, read_mesh  # noqa: E402
+from components.planarize import corner_angles, face_planarity, nonconvex_faces, planarize  # noqa: E402
+
+SHARED = ROOT.parent / "shared" / "data" / "meshes"
+
+
+def sincos_grid(nq: int):
+    L = 0.7 * nq
+    V, F = quad_grid(nq, nq, L, L)
+    V[:, 2] = 0.3 * np.sin(V[:, 0]) * np.cos(V[:, 1])
+    return V, F
+
+
+def _first_below(hist_p, hist_t, thr):
+    idx = np.nonzero(np.asarray(hist_p) <= thr)[0]
+    return float(hist_t[idx[0]]) if len(idx) else float("nan")
+
+
+def _row(name, m, method, t_total, t3, t4, V0, V, F, mel, closeness=float("nan"), extra=""):
+    pl = face_planarity(V, F)
+    d = np.linalg.norm(V - V0, axis=1) / mel
+    ang = np.degrees(corner_angles(V, F).min())
+    ncv = int(nonconvex_faces(V, F).sum())
+    fmt = lambda x: "—" if x != x else f"{x:.3g}"  # noqa: E731
+    print(f"| {name} | {m:,} | {method} | {fmt(t_total)} | {fmt(t3)} | {fmt(t4)} | {pl.max():.2e} | "
+          f"{d.mean():.3f} / {d.max():.3f} | {fmt(closeness)} | {ang:.1f} | {ncv} |{extra}", flush=True)
+    return pl.max(), d.mean()
+
+
+def run_ours(V, F, repeats, **kw):
+    runs = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        res = planarize((V, F), **kw)
+        runs.append((time.perf_counter() - t, res))
+    runs.sort(key=lambda x: x[0])
+    return runs[len(runs) // 2]
+
+
+def run_igl(V, F, iters):
+    import igl
+
+    t = time.perf_counter()
+    Vo = igl.planarize_quad_mesh(V, F, iters, 0.0)
+    return time.perf_counter() - t, Vo
+
+
+def bench_mesh(name, V, F, args, igl_iters, reference=False):
+    m = len(F)
+    mel = float(edge_lengths(V, edge_topology(F).E).mean())
+    print(f"| {name} | {m:,} | input | — | — | — | {face_planarity(V, F).max():.2e} | 0 / 0 | 0 | "
+          f"{np.degrees(corner_angles(V, F).min()):.1f} | {int(nonconvex_faces(V, F).sum())} |", flush=True)
+    dt, res = run_ours(V, F, args.repeats, boundary="free", closeness_weight=0.0, fairness_weight=0.01,
+                       tolerance=1e-5, max_iterations=60, time_budget=60.0)
+    ours = _row(name, m, "ours (free, no closeness)", dt, _first_below(res.history_max_planarity, res.history_time, 1e-3),
+                _first_below(res.history_max_planarity, res.history_time, 1e-4), V, res.mesh[0], F, mel,
+                extra=f" {res.iterations} it, {res.stop_reason}")
+    if reference:
+        dt, res = run_ours(V, F, args.repeats, reference=(V, F), tolerance=1e-4)
+        _row(name, m, "ours (defaults, reference = input)", dt,
+             _first_below(res.history_max_planarity, res.history_time, 1e-3),
+             _first_below(res.history_max_planarity, res.history_time, 1e-4), V, res.mesh[0], F, mel,
+             closeness=res.mean_closeness / mel, extra=f" {res.iterations} it, {res.stop_reason}")
+    if igl_iters:
+        ti, Vi = run_igl(V, F, igl_iters)
+        p_igl, d_igl = _row(name, m, f"libigl planarize_quad_mesh ({igl_iters} it)", ti, float("nan"), float("nan"),
+                            V, Vi, F, mel)
+        # our time to the planarity libigl reached, from the history of the free run
+        dt, res = run_ours(V, F, args.repeats, boundary="free", closeness_weight=0.0, tolerance=max(p_igl, 1e-12),
+                           max_iterations=60)
+        print(f"|  |  | → ours to libigl's {p_igl:.2e}: {dt:.3g} s, speed-up ×{ti / dt:,.0f}, mean move/edge "
+              f"{np.linalg.norm(res.mesh[0] - V, axis=1).mean() / mel:.3f} vs libigl {d_igl:.3f} |"
+              " | | | | | | | |", flush=True)
+
+
+def child_100k():
+    V, F = sincos_grid(316)
+    t = time.perf_counter()
+    res = planarize((V, F), boundary="free", closeness_weight=0.0, tolerance=1e-4, max_iterations=60,
+                    time_budget=120.0)
+    dt = time.perf_counter() - t
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    t3 = _first_below(res.history_max_planarity, res.history_time, 1e-3)
+    print(f"{dt:.3f} {t3:.3f} {res.max_planarity:.3e} {rss:.0f} {res.iterations} {res.worst_corner_angle:.1f} "
+          f"{res.nonconvex_faces}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--full", action="store_true", help="run libigl for 2,000 / 200 iterations (very long)")
+    ap.add_argument("--skip-100k", action="store_true")
+    ap.add_argument("--child-100k", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.child_100k:
+        child_100k()
+        return
+    print("| mesh | quads | method | time s | t→1e-3 | t→1e-4 | final max planarity | mean / max move (edges) |"
+          " mean closeness (edges) | worst corner ° | non-convex |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    bench_mesh("sin-cos grid", *sincos_grid(50), args, 2000 if args.full else 50)
+    bench_mesh("sin-cos grid", *sincos_grid(100), args, 200 if args.full else 10)
+    conj = SHARED / "libigl" / "inspired_mesh_quads_Conjugate.off"
+    if conj.exists():
+        bench_mesh("inspired Conjugate", *read_mesh(conj), args, 300 if args.full else 50, reference=True)
+    if not args.skip_100k:
+        out = subprocess.run([sys.executable, __file__, "--child-100k"], capture_output=True, text=True, check=True)
+        dt, t3, p, rss, it, ang, ncv = out.stdout.split()
+        print(f"| sin-cos grid | 99,856 | ours (free, no closeness), child process | {float(dt):.3g} | {float(t3):.3g} | "
+              f"— | {float(p):.2e} | — | — | {ang} | {ncv} | peak RSS {float(rss):,.0f} MB, {it} it |")
+
+
+if __name__ == "__main__":
+    main()
