@@ -4,12 +4,14 @@ Every meshing strategy ends with a candidate quad mesh whose faces are almost, b
 moves its vertices until every face is planar (to a tolerance) while the mesh stays close to the design surface,
 keeps its boundary and anchors, stays fair and keeps its panels healthy (no collapsed or non-convex quads).
 
-Solver (after Tang, Sun, Gomes, Wallner & Pottmann 2014, "Form-finding with polyhedral meshes made simple"): the
-planarity residuals (and, optionally, the conical angle criterion) are *hard* goals whose weight grows until they
-are met; closeness, fairness and even panels are *soft* goals acting as a regularizer; each iteration linearizes all
-residuals and solves one sparse symmetric positive definite system. Panel health is guarded by one-sided corner
-angle barriers and a backtracking line search that rejects steps creating small corner angles or non-convex faces;
-the best state seen is returned, never one worse than the input.
+Solver (guided projection after Tang, Sun, Gomes, Wallner & Pottmann 2014, "Form-finding with polyhedral meshes
+made simple"): the scale-free planarity residuals (and, optionally, the conical angle criterion) are *hard* goals,
+linearized exactly and met by a minimum-norm correction ``z = z_s + Jᵀλ``, ``(J Jᵀ + εI) λ = −(r + J z_s)``: one
+sparse SPD solve per iteration in a system with one row per face. Closeness, fairness and even panels are *soft*
+goals: they propose a Jacobi-preconditioned Gauss-Newton step ``z_s`` that the correction keeps feasible, damped
+whenever planarity stops halving. Panel health is guarded by corner-angle rows (corners within 10° of the bounds
+``0.5 ×`` the input's worst angle / its margin to 180° become hard rows) and a backtracking step that rejects small
+angles and new non-convex faces; the best state seen is returned, never one worse than the input.
 
 Public array-level functions: :func:`planarize_mesh`, and the measures re-exported from
 :mod:`components.planarize_geometry` (:func:`face_planarity`, :func:`warping_height`, :func:`corner_angles`,
