@@ -43,6 +43,7 @@ _BIG = np.int64(1 << 32)  # edge key = min · _BIG + max
 _FREE, _CURVE, _CORNER = 0, 1, 2
 _MAX_ROUNDS = 40  # batches per phase and iteration (each batch is vectorized)
 _TAIL = 0.1  # stop collapsing / flipping in an iteration when a batch is this small relative to the first
+_CURVE_SLACK = 1.2  # collapses along boundary/feature curves may create edges up to 1.2 · 4/3 L
 _FOLD_COS = 0.5  # a collapse may not turn a face normal by more than 60°
 _FLIP_COS = 0.5  # nor may a flip leave a dihedral sharper than 60° (unless it was already)
 
@@ -403,9 +404,12 @@ def _collapse_short(S: _State, lo: float, hi: float) -> int:
     o1, n1 = _gather(topo.adj_ptr, topo.adj, r)
     o2, n2 = _gather(topo.adj_ptr, topo.adj, k)
     ok = np.ones(len(cand), dtype=bool)
+    # along a boundary or feature curve a longer limit lets the curve lose vertices when its spacing sits just
+    # above 4/3 L (halves below 4/5 L could never merge again); relaxation then evens the curve's spacing
+    limit = np.where(con, _CURVE_SLACK * hi, hi) ** 2
     for o, nb in ((o1, n1), (o2, n2)):
         D = P[o] - V[nb]
-        bad = (np.einsum("ij,ij->i", D, D) > hi * hi) & (nb != r[o]) & (nb != k[o])
+        bad = (np.einsum("ij,ij->i", D, D) > limit[o]) & (nb != r[o]) & (nb != k[o])
         ok &= np.bincount(o[bad], minlength=len(cand)) == 0
     # link condition: common neighbours = opposite vertices of the edge's faces
     both = np.sort(np.concatenate([o1 * np.int64(S.n) + n1, o2 * np.int64(S.n) + n2]))
