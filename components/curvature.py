@@ -378,7 +378,7 @@ def face_principal_curvature(V: np.ndarray, T: np.ndarray, PD1, PD2, PV1, PV2):
     FD1 : (t, 3) float64
         Unit direction of maximal curvature in the face plane.
     FD2 : (t, 3) float64
-        Unit direction of minimal curvature, ``face normal × FD1``... up to sign, orthogonal to ``FD1``.
+        Unit direction of minimal curvature, ``face normal × FD1``.
     FV1 : (t,) float64
         Maximal curvature.
     FV2 : (t,) float64

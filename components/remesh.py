@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from components.curvature import vertex_normals
 from components.mesh import (
     InputError,
     boundary_loops,
@@ -522,8 +523,6 @@ def _relax_and_project(S: _State, proj: _Projector, damping: float = 1.0) -> Non
     """Tangential relaxation (uniform Laplacian, normal component removed), then projection."""
     V, T = S.V, S.T
     topo = _Topo(T, S.n)
-    from components.curvature import vertex_normals  # angle-weighted normals
-
     N = vertex_normals(V, T)
     deg = np.maximum(topo.valence, 1)
     Q = np.zeros_like(V)
@@ -717,7 +716,8 @@ def remesh(mesh: Mesh, target_length: float, iterations: int = 10) -> RemeshResu
     max_edge : float
         Longest edge.
     max_deviation : float
-        Largest distance from a result vertex to the input surface (model units).
+        Largest distance from a result vertex to the input surface (model units; an upper bound measured against
+        the faces near each vertex, ~0 since every vertex is projected onto the input).
     warnings : list[str]
         Caveats, e.g. a target length far from what the input can hold.
 

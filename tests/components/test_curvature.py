@@ -85,6 +85,10 @@ def test_sphere_is_umbilic_with_positive_curvature_for_outward_normals():
     # directions: unit, orthogonal, tangent
     assert np.allclose(np.linalg.norm(PD1, axis=1), 1) and np.allclose(np.einsum("ij,ij->i", PD1, PD2), 0, atol=1e-9)
     assert np.all(np.abs(np.einsum("ij,ij->i", PD1, V / r)) < 0.02)
+    # per face: the averaged tensors give the same umbilic values, so K_f = 1/r², H_f = 1/r
+    FD1, FD2, f1, f2 = face_principal_curvature(V, T, PD1, PD2, k1, k2)
+    assert np.allclose(f1, 1 / r, rtol=0.04) and np.allclose(f2, 1 / r, rtol=0.04)
+    assert np.allclose(f1 * f2, 1 / r**2, rtol=0.08)
     # reversing the orientation flips the signs of k1, k2 and H but not K
     _, _, f1, f2 = vertex_principal_curvature(V, T[:, ::-1], radius=2)
     assert np.allclose(f1, -k2) and np.allclose(f2, -k1)

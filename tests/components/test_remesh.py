@@ -112,6 +112,14 @@ def test_saddle_coarsens_and_keeps_square_corners():
         assert np.min(np.linalg.norm(V2 - c, axis=1)) == 0.0
 
 
+def test_unprotected_corners_still_stay_on_the_boundary():
+    V0 = np.stack(np.meshgrid(np.linspace(-1, 1, 21), np.linspace(-1, 1, 21)), -1).reshape(-1, 2)
+    V = np.column_stack([V0, 0.4 * V0[:, 0] * V0[:, 1]])
+    T = _grid_tris(20, 20)
+    V2, T2 = isotropic_remesh(V, T, 0.2, preserve_boundary=False)
+    _check_remesh(V, T, V2, T2, 0.2, within=0.85)
+
+
 def test_boundary_vertices_slide_instead_of_staying_fixed():
     # gpytoolbox keeps the input boundary vertices; here the boundary is resampled to the target
     V0 = np.stack(np.meshgrid(np.linspace(0, 1, 51), np.linspace(0, 0.2, 3)), -1).reshape(-1, 2)
