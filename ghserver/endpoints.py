@@ -6,7 +6,7 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import curvature, metrics, pull, samples, subdivide, surfaces
+from components import curvature, metrics, pull, remesh, samples, subdivide, surfaces
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}
@@ -33,6 +33,7 @@ COMPONENTS = [
     declare(surfaces.surface_mesh, "surfaces/surface_mesh", nicknames={"surface": "S"}),
     declare(samples.sample_surface, "surfaces/sample"),
     # fields
+    declare(remesh.remesh, "fields/remesh", nicknames=M),
     declare(curvature.principal_curvature, "fields/principal_curvature", nicknames=M),
     # subdivision strategy
     declare(subdivide.subdivide, "subdivision/catmull_clark", nicknames=M),

@@ -69,6 +69,8 @@ CASES = {
     "surfaces/surface_mesh": (lambda: dict(surface=_surface(), count_u=6, count_v=5),
                               lambda r: len(r.mesh[0]) == 7 * 6),
     "surfaces/sample": (lambda: dict(name="saddle", resolution=10), lambda r: np.mean(r.gaussian_curvature < 0) > 0.9),
+    "fields/remesh": (lambda: dict(mesh=dome_tri(), target_length=3.0),
+                      lambda r: 2.0 < r.mean_edge < 4.0 and r.max_deviation < 0.03),
     "fields/principal_curvature": (lambda: dict(mesh=dome_tri()), lambda r: np.median(r.gaussian) > 0),
     "subdivision/catmull_clark": (lambda: dict(mesh=quad_grid(3, 3), levels=2), lambda r: r.face_count == 9 * 16),
     "subdivision/pull_to_surface": (lambda: dict(mesh=quad_grid(3, 3, 1.0, 1.0, lambda x, y: 0.1 + 0 * x),
