@@ -653,7 +653,8 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
     max_planarity : float
         Largest quad planarity (distance between the diagonals / mean diagonal): a conical mesh is a PQ mesh.
     is_conical : bool
-        True when the largest criterion and the largest planarity are both within the tolerance.
+        True when the largest criterion and the largest planarity are both within the tolerance (False when the
+        criterion checks no vertex although some interior vertex has more than four faces, e.g. a triangle mesh).
 
     Raises
     ------
@@ -681,6 +682,11 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
     chk = conical_check(V, F, tol=tolerance)
     crit = np.nan_to_num(chk.criterion, nan=0.0)
     checked = np.nonzero(chk.checked)[0]
+    # an interior vertex with more than three faces that the criterion cannot check (e.g. a triangle mesh)
+    topo = edge_topology(F)
+    bmask = np.zeros(len(V), dtype=bool)
+    bmask[topo.E[topo.count == 1].ravel()] = True
+    interior_big = bool(np.any(~bmask & (np.bincount(_corners(F).v, minlength=len(V)) > 4)))
     if len(checked) == 0:
         warnings.append("no interior vertex with four faces: the angle criterion checks nothing")
     failed = np.nonzero(~chk.passed)[0]
@@ -710,7 +716,7 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
         max_cone_deviation=float(fit.deviation[dev_ok].max()) if dev_ok.any() else 0.0,
         node_axes=lines,
         max_planarity=max_pl,
-        is_conical=bool(max_crit <= tolerance and max_pl <= tolerance),
+        is_conical=bool(max_crit <= tolerance and max_pl <= tolerance and (len(checked) > 0 or not interior_big)),
         warnings=warnings,
     )
 
@@ -793,9 +799,10 @@ def offset_mesh(mesh: Mesh, distance: float = 0.1, method: str = "face") -> Offs
         )
     if method == "face" and max_err > 1e-6 * abs(d):
         chk = conical_check(V, F)
+        why = (f"max angle criterion {chk.max_criterion:.2e} rad" if chk.checked.any()
+               else "the moved face planes do not meet in one point at every vertex")
         warnings.append(
-            f"the mesh is not conical (max angle criterion {chk.max_criterion:.2e} rad): the offset faces are "
-            f"up to {max_err:.3g} from the distance {d:g}"
+            f"the mesh is not conical ({why}): the offset faces are up to {max_err:.3g} from the distance {d:g}"
         )
     return OffsetMeshResult(
         offset=(off.V, F),

@@ -206,3 +206,12 @@ def test_offset_mesh_component():
     # beyond the radius of curvature faces flip: said in a warning
     far = offset_mesh((V, F), distance=-3.0)
     assert any("flipped" in w for w in far.warnings)
+
+
+def test_triangle_mesh_is_not_reported_conical():
+    V, F = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_dome.obj"))
+    res = conical_analysis((V, F))
+    assert not res.is_conical and len(res.checked) == 0
+    assert any("checks nothing" in w for w in res.warnings)
+    off = offset_mesh((V, F), distance=0.05)
+    assert any("do not meet in one point" in w for w in off.warnings)
