@@ -6,7 +6,7 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import curvature, metrics, pull, remesh, samples, subdivide, surfaces
+from components import conical, curvature, metrics, parametrize_conformal, pull, remesh, samples, subdivide, surfaces
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}
@@ -35,6 +35,10 @@ COMPONENTS = [
     # fields
     declare(remesh.remesh, "fields/remesh", nicknames=M),
     declare(curvature.principal_curvature, "fields/principal_curvature", nicknames=M),
+    # curvature-network strategy: conformal map, conical meshes, offsets
+    declare(parametrize_conformal.conformal_map, "parametrize/conformal_map", nicknames=M),
+    declare(conical.conical_analysis, "conical/analysis", nicknames=M),
+    declare(conical.offset_mesh, "conical/offset", nicknames=M),
     # subdivision strategy
     declare(subdivide.subdivide, "subdivision/catmull_clark", nicknames=M),
     declare(pull.pull_to_surface, "subdivision/pull_to_surface", nicknames={**M, "surface": "S"}),
