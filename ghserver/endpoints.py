@@ -6,7 +6,8 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import conical, curvature, metrics, parametrize_conformal, pull, remesh, samples, subdivide, surfaces
+from components import (conical, curvature, metrics, parametrize_conformal, planarize, pull, remesh, samples, subdivide,
+                        surfaces)
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}
@@ -32,6 +33,13 @@ COMPONENTS = [
     declare(surfaces.paraboloid_surface, "surfaces/paraboloid"),
     declare(surfaces.surface_mesh, "surfaces/surface_mesh", nicknames={"surface": "S"}),
     declare(samples.sample_surface, "surfaces/sample"),
+    # planarization
+    declare(planarize.planarize, "planarize/planarize", nicknames={**M, "reference": "R"},
+            ranges={k: (0.0, None) for k in ("closeness_weight", "start_weight", "fairness_weight",
+                                             "edge_length_weight", "area_weight", "conical_weight", "tolerance",
+                                             "time_budget")}),
+    declare(planarize.planarize_on_surface, "planarize/on_surface", nicknames={**M, "surface": "S"},
+            ranges={k: (0.0, None) for k in ("closeness_weight", "fairness_weight", "tolerance", "time_budget")}),
     # fields
     declare(remesh.remesh, "fields/remesh", nicknames=M),
     declare(curvature.principal_curvature, "fields/principal_curvature", nicknames=M),

@@ -20,6 +20,29 @@ def hypar():
     return V, Q
 
 
+def _paraboloid(n):
+    V, Q = quad_grid(n, n, 2.0, 2.0)
+    V[:, :2] -= 1
+    V[:, 2] = -0.25 * (V[:, 0] ** 2 + V[:, 1] ** 2)
+    return V, Q
+
+
+def dome_grid_tri():
+    from components.mesh import triangulate
+
+    V, Q = _paraboloid(24)
+    return V, triangulate(Q)[0]
+
+
+def bumpy_dome():
+    """An 8×8 grid on an elliptic paraboloid (a translation surface, so PQ exists) with interior noise."""
+    V, Q = _paraboloid(8)
+    rng = np.random.default_rng(0)
+    inner = (np.abs(V[:, 0]) < 0.99) & (np.abs(V[:, 1]) < 0.99)
+    V[inner, 2] += 0.01 * rng.standard_normal(inner.sum())
+    return V, Q
+
+
 def dome_tri(n=12):
     from components.samples import sample_mesh
 
@@ -76,6 +99,9 @@ CASES = {
     "conical/analysis": (lambda: dict(mesh=quad_grid(4, 4)), lambda r: r.is_conical and r.max_criterion < 1e-12),
     "conical/offset": (lambda: dict(mesh=quad_grid(4, 4), distance=0.5),
                        lambda r: np.allclose(r.offset[0][:, 2], 0.5) and r.max_face_error < 1e-12),
+    "planarize/planarize": (lambda: dict(mesh=hypar()), lambda r: r.max_planarity <= 1e-4 and r.converged),
+    "planarize/on_surface": (lambda: dict(mesh=bumpy_dome(), surface=dome_grid_tri()),
+                             lambda r: r.max_planarity <= 1e-4),
     "subdivision/catmull_clark": (lambda: dict(mesh=quad_grid(3, 3), levels=2), lambda r: r.face_count == 9 * 16),
     "subdivision/pull_to_surface": (lambda: dict(mesh=quad_grid(3, 3, 1.0, 1.0, lambda x, y: 0.1 + 0 * x),
                                                  surface=quad_grid(3, 3)),
