@@ -227,8 +227,10 @@ def scale(x: float, factor: float = 2.0, absolute_tolerance: float = 0.01, model
         raise InputError("factor", f"must not be negative, got {factor}")
     if x == 13:
         raise RuntimeError("unlucky\nsecond line of the message")
-    if x == 99:
+    if x == 424242.5:  # a deliberately broken output (NaN) for the output-encoding tests
         return Scaled(float("nan"), np.array([x]), [])
+    if not np.isfinite(x * factor):
+        raise InputError("x", f"{x!r} times {factor!r} overflows")
     return Scaled(x * factor, np.array([x, x * factor]),
                   [f"tolerance {absolute_tolerance} {model_units}".strip()])
 

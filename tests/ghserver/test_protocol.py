@@ -286,7 +286,7 @@ def test_9_handler_failure_is_500_one_line(client, caplog):
 
 
 def test_9_nan_output_is_500(client):
-    r = client.post("/solve", json=hops_body("echo/scale", hops_tree("x", ["99"])))
+    r = client.post("/solve", json=hops_body("echo/scale", hops_tree("x", ["424242.5"])))
     assert r.status_code == 500 and "NaN" in r.json["errors"][0] and "value" in r.json["errors"][0]
 
 
