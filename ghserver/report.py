@@ -508,6 +508,7 @@ def _html(report: dict, titles: dict) -> str:
         '<meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         "<title>PQ strategies: comparison report</title>",
+        '<link rel="icon" href="data:,">',  # no favicon request (a 404 would be a console error when served)
         f"<style>{_CSS}</style>",
         "</head>",
         "<body>",

@@ -216,12 +216,14 @@ def test_html_is_well_formed_and_self_contained(quick_report):
     assert not p.errors, p.errors[:5]
     assert p.stack == [], f"unclosed elements: {p.stack}"
     assert p.tags[:1] == ["html"] and "head" in p.tags and "title" in p.tags and "body" in p.tags
-    assert "script" not in p.tags and "link" not in p.tags  # inline CSS, no scripts, no external fonts
+    assert "script" not in p.tags  # no scripts
+    # inline CSS, no stylesheets or fonts: the only <link> is the empty inline favicon
+    assert [(t, v) for t, k, v in p.links if t == "link"] == [("link", "data:,")]
     srcs = [v for t, k, v in p.links if t == "img"]
     assert len(srcs) == summary.images
     for tag, attr, v in p.links:
         assert "://" not in v and not v.startswith("//"), f"external reference {v}"
-        if v.startswith("#"):
+        if v.startswith("#") or v.startswith("data:"):
             continue
         assert (summary.out_dir / v).is_file(), f"<{tag} {attr}={v}> does not resolve"
     for r in data["results"]:
