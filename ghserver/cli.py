@@ -26,18 +26,34 @@ def _ipv6_loopback_available() -> bool:
         return False
 
 
-def make_server(app, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, threads: int = 8, **kw):
+def _reuse_port_socket(host: str, port: int) -> socket.socket:
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    sock.bind((host.strip("[]"), port))
+    return sock
+
+
+def make_server(app, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, threads: int = 8, reuse_port: bool = False,
+                **kw):
     """A waitress server for ``app``; on the default loopback host it also listens on ``[::1]`` when available.
 
     Windows resolves ``localhost`` to ``::1`` first, so a Hops path ``http://localhost:5000/…`` stays fast.
+    ``reuse_port`` (Linux, BSD, macOS) lets several server processes listen on the same address: the kernel
+    spreads connections over them (scale-out without a proxy; components are stateless).
     """
     from waitress import create_server
 
+    opts = dict(threads=threads, channel_timeout=600, ident="ghserver", clear_untrusted_proxy_headers=True)
+    opts.update(kw)
+    if reuse_port:
+        if not hasattr(socket, "SO_REUSEPORT"):
+            raise OSError("--reuse-port is not supported on this platform; run instances behind a reverse proxy")
+        return create_server(app, sockets=[_reuse_port_socket(host, port)], **opts)
     listen = [f"{host}:{port}" if ":" not in host else f"[{host}]:{port}"]
     if host == DEFAULT_HOST and port != 0 and _ipv6_loopback_available():
         listen.append(f"[::1]:{port}")
-    opts = dict(threads=threads, channel_timeout=600, ident="ghserver", clear_untrusted_proxy_headers=True)
-    opts.update(kw)
     try:
         return create_server(app, listen=" ".join(listen), **opts)
     except OSError:
@@ -80,6 +96,7 @@ def config_from_args(args):
         solve_timeout=args.solve_timeout, memory_limit_mb=args.memory_limit_mb or None,
         max_vertices=args.max_vertices, max_faces=args.max_faces,
         max_pending_solves=max(1, args.threads - 4) if workers else 0, api_key=api_key,
+        registry_factory=args.components,
     )
 
 
@@ -90,7 +107,7 @@ def _serve(args) -> int:
     app = create_app(cfg)
     n = len(app.extensions["ghserver.registry"])
     try:
-        server = make_server(app, args.host, args.port, threads=args.threads,
+        server = make_server(app, args.host, args.port, threads=args.threads, reuse_port=args.reuse_port,
                              max_request_body_size=int(args.max_body_mb * 2**20) + 1)
     except OSError as exc:
         log.error("cannot listen on %s:%s: %s", args.host, args.port, exc)
@@ -144,6 +161,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--max-faces", type=int, default=5_000_000, help="largest mesh accepted (default 5e6)")
     s.add_argument("--api-key", default=None, help="require this key on solves (RhinoComputeKey header)")
     s.add_argument("--no-auth", action="store_true", help="allow a non-loopback --host without an API key")
+    s.add_argument("--components", default="ghserver.endpoints:build_registry", metavar="MODULE:FUNCTION",
+                   help="function returning the component Registry to serve (default: the published components)")
+    s.add_argument("--reuse-port", action="store_true",
+                   help="share the port with other ghserver processes (scale-out on one address; not on Windows)")
     s.set_defaults(func=_serve)
     ls = sub.add_parser("list", help="print the component catalogue")
     ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")
