@@ -561,11 +561,11 @@ _PIPELINE_MODULES = ("components.pipelines", "components.curvature_network", "co
                      "components.conformal_pipeline", "components.network")
 
 
-def _find_function(fname: str):
-    """The first module of :data:`_PIPELINE_MODULES` that defines ``fname``, or None."""
+def _find_function(fname: str, modules=_PIPELINE_MODULES):
+    """The first of ``modules`` that defines ``fname``, or None."""
     import importlib.util
 
-    for modname in _PIPELINE_MODULES:
+    for modname in modules:
         try:
             if importlib.util.find_spec(modname) is None:
                 continue
@@ -633,17 +633,26 @@ def _call_pipeline(fname: str, V, T, panel_size, time_budget):
     return Candidate(cand, opt, timings, warnings, f"{fn.__module__}.{fname}({used})")
 
 
-def _missing_function(fname: str) -> Callable[[], str | None]:
+def _missing_function(fname: str, modules=_PIPELINE_MODULES) -> Callable[[], str | None]:
     def missing():
-        if _find_function(fname) is None:
-            return f"{fname} is not implemented yet (looked in {', '.join(_PIPELINE_MODULES)})"
+        if _find_function(fname, modules) is None:
+            return f"{fname} is not implemented yet (looked in {', '.join(modules)})"
         return None
 
     return missing
 
 
 def _run_conjugate(V, T, panel_size, time_budget=30.0):
-    return _call_pipeline("pq_from_conjugate_field", V, T, panel_size, time_budget)
+    from components.pipelines import pq_from_conjugate_field
+
+    res = pq_from_conjugate_field((V, T), target_length=float(panel_size), time_budget=float(time_budget))
+    timings = {"field": res.time_field, "parametrize": res.time_parametrize, "extract": res.time_extract,
+               "planarize": res.time_planarize}
+    detail = (f"conjugate field ({res.singularities} singular vertices, iso-lines {res.mean_angle_error:.1f}° from "
+              f"the field on average), {100 * res.quad_ratio:.0f}% quads, "
+              f"{100 * res.edge_length_within:.0f}% of edges within ±30% of the panel size; planarized max "
+              f"planarity {res.planarized_max_planarity:.2g}")
+    return Candidate(tuple(res.candidate[:2]), tuple(res.planarized[:2]), timings, list(res.warnings), detail)
 
 
 def _run_network(V, T, panel_size, time_budget=30.0):
@@ -660,7 +669,7 @@ STRATEGIES: tuple[Strategy, ...] = (
              _run_translation, lambda: None),
     Strategy("conjugate_field", "Conjugate field",
              "conjugate direction field → quad extraction → planarization",
-             _run_conjugate, _missing_function("pq_from_conjugate_field")),
+             _run_conjugate, _missing_function("pq_from_conjugate_field", ("components.pipelines",))),
     Strategy("curvature_network", "Curvature network",
              "curvature-line network → conformal map → quad rebuild → conical optimization",
              _run_network, _missing_function("pq_from_curvature_network")),
