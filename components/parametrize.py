@@ -624,7 +624,9 @@ class Parametrization(NamedTuple):
     ``singularities (k,)`` singular vertices, ``singularity_turns (k,)`` their matching sum mod 4 (1 or 3: a
     quarter turn, 2: half), ``cut_edges (c, 2)`` the cut graph, ``angle_error (m,)`` per face in radians,
     ``flipped`` count of triangles whose parameter image is inverted, ``seam_gap`` largest mismatch of the
-    transition functions, ``boundary_gap`` largest distance of a boundary vertex from its integer iso-line,
+    transition functions (0 up to rounding: exact by construction), ``boundary_gap`` largest distance (grid units)
+    of a boundary vertex from its integer iso-line (the stiff penalty's residual, removed by snapping except at cut
+    ends),
     ``copy (m, 3)`` vertex copy of every corner, ``warnings``, ``timings``.
     """
 
@@ -837,8 +839,12 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
         S = sp.csr_matrix((np.ones(nb), (np.arange(nb), ccol0 + bd.seg_id)), shape=(nb, ny))
         D = (Prow - S).tocsr()
         M = M + bw * (D.T @ D)
+    # the energy is invariant under a global translation of the parameters: pin one free copy (no bias)
     diag_scale = float(M.diagonal().mean()) if ny else 1.0
-    M = (M + sp.identity(ny) * (1e-9 * diag_scale)).tocsc()
+    pin = np.zeros(ny)
+    if nfree:
+        pin[[0, 1]] = diag_scale
+    M = (M + sp.diags(pin)).tocsc()
     timings["assemble"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
@@ -883,12 +889,12 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
             else:
                 tr[sel] = np.round(y[[tcol[ci], tcol[ci] + 1]])
         X[cuts.right] = np.einsum("rij,rj->ri", A, X[cuts.left]) + tr
-        # the eliminated copies on an aligned boundary keep their exact integer line
+        # the eliminated copies on an aligned boundary follow their left copies exactly (seams stay exact); how far
+        # they are from their own segment's integer line is reported
         if bd.nseg:
             onb = elim[bd.seg_copy]
             seam_gap = float(np.max(np.abs(X[bd.seg_copy[onb], bd.seg_coord[onb]]
                                            - np.round(y[ccol0:])[bd.seg_id[onb]]), initial=0.0))
-            X[bd.seg_copy[onb], bd.seg_coord[onb]] = np.round(y[ccol0:])[bd.seg_id[onb]]
         else:
             seam_gap = 0.0
     else:
@@ -905,7 +911,10 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     cut_edges = np.array([[p[i], p[i + 1]] for p in paths for i in range(len(p) - 1)], dtype=np.int64).reshape(-1, 2)
     log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
               len(ints), timings["total"])
-    return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, max(seam_gap, 0.0), gap, corner_copy,
+    resid = 0.0
+    if len(cuts.right):
+        resid = float(np.max(np.abs(X[cuts.right] - np.einsum("rij,rj->ri", A, X[cuts.left]) - tr)))
+    return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, resid, max(gap, seam_gap), corner_copy,
                            warnings, timings)
 
 
