@@ -123,9 +123,10 @@ class _Points(NamedTuple):
     bary: np.ndarray  # (p, 3)
     grid: np.ndarray  # (p,) bool: both coordinates integer
     bnd: np.ndarray  # (p,) bool: on the mesh boundary
+    corner: np.ndarray  # (p,) bool: a sharp corner of the mesh boundary (kept as a vertex)
 
 
-def _pieces(V, T, UV, twin_mask):
+def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
     """Points and pieces (index pairs into the points) of the iso-line graph and of the split boundary."""
     tris, barys, grids, bnds = [], [], [], []
     pa, pb = [], []
@@ -192,7 +193,19 @@ def _pieces(V, T, UV, twin_mask):
     same = owner[1:] == owner[:-1]
     pa.append(idx[:-1][same])
     pb.append(idx[1:][same])
-    pts = _Points(np.concatenate(tris), np.concatenate(barys), np.concatenate(grids), np.concatenate(bnds))
+    # sharp boundary corners: the turn between the boundary edge arriving at a vertex and the one leaving it
+    n = int(T.max()) + 1
+    H = np.stack([T.ravel(), np.roll(T, -1, axis=1).ravel()], axis=1)
+    dvec = V[H[bh, 1]] - V[H[bh, 0]]
+    dvec /= np.linalg.norm(dvec, axis=1, keepdims=True)
+    out_of = np.full(n, -1, dtype=np.int64)
+    out_of[H[bh, 0]] = np.arange(len(bh))
+    nxt_e = out_of[H[bh, 1]]
+    sharp_end = np.einsum("ij,ij->i", dvec, dvec[nxt_e]) < np.cos(np.radians(corner_angle))
+    sharp_pt = (ss >= 1.0) & sharp_end[owner]
+    corners = [np.zeros(len(t), dtype=bool) for t in tris[:-1]] + [sharp_pt]
+    pts = _Points(np.concatenate(tris), np.concatenate(barys), np.concatenate(grids), np.concatenate(bnds),
+                  np.concatenate(corners))
     return pts, np.concatenate(pa), np.concatenate(pb)
 
 
@@ -231,7 +244,7 @@ def _faces_from_graph(X, N, a, b, da, db):
     """
     ne = len(a)
     if ne == 0:
-        return [], np.zeros(0)
+        return [], np.zeros(0), []
     tail = np.concatenate([a, b])  # half-edge h (< ne): a -> b; h + ne: b -> a
     head = np.concatenate([b, a])
     dirs = np.concatenate([da, db])
@@ -254,25 +267,29 @@ def _faces_from_graph(X, N, a, b, da, db):
     # cycles of the permutation nxt
     seen = np.zeros(2 * ne, dtype=bool)
     cycles = []
+    hcycles = []
     nxt_l = nxt.tolist()
     tail_l = tail.tolist()
     for h0 in range(2 * ne):
         if seen[h0]:
             continue
         cyc = []
+        hs = []
         h = h0
         while not seen[h]:
             seen[h] = True
             cyc.append(tail_l[h])
+            hs.append(h)
             h = nxt_l[h]
         cycles.append(cyc)
+        hcycles.append(hs)
     area = np.zeros(len(cycles))
     for i, cyc in enumerate(cycles):
         P = X[cyc]
         Q = np.roll(P, -1, axis=0)
         nrm = N[cyc].mean(axis=0)
         area[i] = 0.5 * float(np.cross(P, Q).sum(axis=0) @ nrm)
-    return cycles, area
+    return cycles, area, hcycles
 
 
 class Extraction(NamedTuple):
@@ -356,7 +373,9 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     a, b = key // nn, key % nn
     Xn = X[rep]
     deg = np.bincount(np.concatenate([a, b]), minlength=nn)
-    kept = grid | (deg != 2)
+    corner = np.zeros(nn, dtype=bool)
+    np.logical_or.at(corner, lab, pts.corner)
+    kept = grid | corner | (deg != 2)
     kept &= deg > 0
     timings["merge"] = time.perf_counter() - t1
     t2 = time.perf_counter()
@@ -396,12 +415,18 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     FN /= np.linalg.norm(FN, axis=1, keepdims=True)
     Nn = FN[node_tri[kn]]
     A_, B_ = remap[ca], remap[cb]
-    cycles, area = _faces_from_graph(Vc, Nn, A_, B_, da, db)
+    # half-edges that run along the mesh boundary against its orientation face the outside (also around holes)
+    bdir = lab[pa[pts.bnd[pa] & pts.bnd[pb]]] * nn + lab[pb[pts.bnd[pa] & pts.bnd[pb]]]
+    first_o = vother[i0][good]
+    fwd = np.isin(ca * nn + first_o, bdir)
+    bwd = np.isin(first_o * nn + ca, bdir)
+    outside = np.concatenate([bwd & ~fwd, fwd & ~bwd])
+    cycles, area, hcycles = _faces_from_graph(Vc, Nn, A_, B_, da, db)
     timings["cells"] = time.perf_counter() - t2
     t3 = time.perf_counter()
-    faces = [c for c, s in zip(cycles, area) if s > 0 and len(c) >= 3]
-    bk = bnd[kn]
-    dropped = sum(1 for c, s in zip(cycles, area) if s <= 0 and not bk[c].all())
+    out_c = [bool(outside[hs].any()) for hs in hcycles]
+    faces = [c for c, s, o in zip(cycles, area, out_c) if s > 0 and not o and len(c) >= 3]
+    dropped = sum(1 for c, s, o in zip(cycles, area, out_c) if not o and (s <= 0 or len(c) < 3))
     Vout, Fout, tri_out, bary_out, grid_out = _cleanup(Vc, faces, node_tri[kn], node_bary[kn], grid[kn], Nn,
                                                        merge * h)
     timings["cleanup"] = time.perf_counter() - t3

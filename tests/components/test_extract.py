@@ -1,0 +1,123 @@
+"""Quad extraction from a seamless parametrization: exact grids, on-surface vertices, orientation, topology."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.extract import extract_quads, iso_segments, quad_mesh_from_parametrization
+from components.mesh import InputError, MeshError, edge_topology, face_normals, face_sizes, validate_mesh
+from components.parametrize import direction_field, seamless_parametrization
+from components.samples import sample_mesh
+from tests.components.test_parametrize import annulus, constant_field, plane
+
+
+def euler(V, F):
+    return len(np.unique(F)) - len(edge_topology(F).E) + len(F)
+
+
+def on_input_triangles(ex, V, T):
+    """Every candidate vertex is its barycentric point of an input triangle."""
+    P = np.einsum("pk,pkd->pd", ex.bary, V[T[ex.tri]])
+    return np.abs(P - ex.V).max(), ex.bary.min()
+
+
+def oriented_like(Vc, F, V, T, ex_tri):
+    """Candidate face normals agree with the input normals under their corners."""
+    N = face_normals(Vc, F)
+    NT = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    NT /= np.linalg.norm(NT, axis=1, keepdims=True)
+    ref = NT[ex_tri[F[:, 0]]]
+    return np.einsum("ij,ij->i", N, ref)
+
+
+def test_plane_constant_field_gives_the_exact_grid():
+    V, T = plane(n=10, size=6.0, jitter=0.3)
+    U, W = constant_field(T, [1, 0, 0], [0, 1, 0])
+    h = 0.5
+    par = seamless_parametrization(V, T, U, W, target_length=h)
+    ex = quad_mesh_from_parametrization(V, T, par.UV, target_length=h)
+    s = face_sizes(ex.F)
+    assert len(ex.F) == 144 and np.all(s == 4)
+    # vertices on the h-lattice
+    assert np.allclose(ex.V[:, :2] / h, np.round(ex.V[:, :2] / h), atol=1e-6)
+    assert len(ex.V) == 13 * 13
+    validate_mesh(ex.V, ex.F)
+    assert euler(ex.V, ex.F) == 1
+    assert oriented_like(ex.V, ex.F, V, T, ex.tri).min() > 0.999
+
+
+def test_rotated_field_with_free_boundary_clips_cells_at_the_boundary():
+    V, T = plane(n=10, size=6.0)
+    a = np.radians(25)
+    U, W = constant_field(T, [np.cos(a), np.sin(a), 0], [-np.sin(a), np.cos(a), 0])
+    h = 0.6
+    par = seamless_parametrization(V, T, U, W, target_length=h, boundary="free")
+    ex = quad_mesh_from_parametrization(V, T, par.UV, target_length=h, merge=0.0)
+    validate_mesh(ex.V, ex.F)
+    # the cells tile the square exactly
+    area = np.linalg.norm(face_normals(ex.V, ex.F, unit=False), axis=1).sum()
+    assert area == pytest.approx(36.0, rel=1e-9)
+    # interior cells are rotated squares of side h
+    s = face_sizes(ex.F)
+    full = np.isclose(np.linalg.norm(face_normals(ex.V, ex.F, unit=False), axis=1), h * h)
+    assert full.sum() > 60 and np.all(s[full] == 4)
+    assert euler(ex.V, ex.F) == 1
+    err, bmin = on_input_triangles(ex, V, T)
+    assert err < 1e-12 and bmin > -1e-9
+
+
+def test_annulus_keeps_its_topology_and_quads():
+    V, T, U, W = annulus()
+    par = seamless_parametrization(V, T, U, W, target_length=0.5)
+    ex = quad_mesh_from_parametrization(V, T, par.UV, target_length=0.5)
+    validate_mesh(ex.V, ex.F)
+    assert euler(ex.V, ex.F) == 0
+    assert np.all(face_sizes(ex.F) == 4)
+    assert oriented_like(ex.V, ex.F, V, T, ex.tri).min() > 0.9
+    err, _ = on_input_triangles(ex, V, T)
+    assert err < 1e-12
+
+
+@pytest.mark.parametrize("name", ["dome", "canopy"])
+def test_sample_surfaces_with_singularities(name):
+    V, T, _ = sample_mesh(name, 24)
+    U, W = direction_field(V, T, field="smooth", alignment=0.1)
+    h = 2.0
+    par = seamless_parametrization(V, T, U, W, target_length=h)
+    ex = quad_mesh_from_parametrization(V, T, par.UV, target_length=h)
+    validate_mesh(ex.V, ex.F)  # manifold, consistently oriented, no degenerate faces
+    assert euler(ex.V, ex.F) == 1
+    s = face_sizes(ex.F)
+    assert np.mean(s == 4) >= 0.95
+    assert oriented_like(ex.V, ex.F, V, T, ex.tri).min() > 0  # no flipped face
+    err, _ = on_input_triangles(ex, V, T)
+    assert err < 1e-9
+
+
+def test_iso_segments_lie_on_integer_lines():
+    V, T = plane(n=6, size=3.0)
+    U, W = constant_field(T, [1, 0, 0], [0, 1, 0])
+    par = seamless_parametrization(V, T, U, W, target_length=0.5)
+    S = iso_segments(V, T, par.UV)
+    assert S.shape[1:] == (2, 3) and len(S) > 0
+    # each segment is on x = i h or y = j h
+    on_x = np.all(np.isclose(S[:, :, 0] / 0.5, np.round(S[:, :, 0] / 0.5)), axis=1)
+    on_y = np.all(np.isclose(S[:, :, 1] / 0.5, np.round(S[:, :, 1] / 0.5)), axis=1)
+    assert np.all(on_x | on_y)
+
+
+def test_extract_quads_component():
+    V, T, _ = sample_mesh("wave", 24)
+    res = extract_quads((V, T), target_length=2.0, field="smooth")
+    Vc, Fc = res.mesh
+    assert res.quads + res.other_faces == len(Fc)
+    assert res.quad_ratio >= 0.95
+    assert res.singularities >= 0 and res.mean_angle_error < 10
+
+
+def test_extract_quads_errors(nonmanifold_fan):
+    V, T, _ = sample_mesh("dome", 8)
+    with pytest.raises(InputError, match="target_length"):
+        extract_quads((V, T), target_length=0.0)
+    with pytest.raises(MeshError, match="mesh"):
+        extract_quads(nonmanifold_fan, target_length=0.1)
