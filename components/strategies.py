@@ -373,7 +373,6 @@ def _locate(UV: np.ndarray, T: np.ndarray, P: np.ndarray):
 
     A, B, C = UV[T[:, 0]], UV[T[:, 1]], UV[T[:, 2]]
     cen = (A + B + C) / 3
-    rad = np.max(np.linalg.norm(np.stack([A, B, C]) - cen[None], axis=2), axis=0)
     tree = cKDTree(cen)
     k = min(len(T), 32)
     _, cand = tree.query(P, k=k)
@@ -403,7 +402,6 @@ def _locate(UV: np.ndarray, T: np.ndarray, P: np.ndarray):
             t = int(np.argmax(bb.min(axis=1)))
             tri[p] = t
             w[p] = np.clip(bb[t], 0.0, None) / np.clip(bb[t], 0.0, None).sum()
-    del rad
     return tri, w
 
 
@@ -636,7 +634,7 @@ def _call_pipeline(fname: str, V, T, panel_size, time_budget):
 def _missing_function(fname: str, modules=_PIPELINE_MODULES) -> Callable[[], str | None]:
     def missing():
         if _find_function(fname, modules) is None:
-            return f"{fname} is not implemented yet (looked in {', '.join(modules)})"
+            return f"{fname} is not implemented yet"
         return None
 
     return missing
