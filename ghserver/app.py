@@ -62,12 +62,12 @@ class ResultCache:
         self._lock = threading.Lock()
 
     @staticmethod
-    def key(uri: str, body: dict) -> str:
-        canon = json.dumps(
-            [uri, body.get("values"), body.get("absolutetolerance"), body.get("angletolerance"),
-             body.get("modelunits")], sort_keys=True, separators=(",", ":"),
-        )
-        return hashlib.sha256(canon.encode("utf-8", "surrogatepass")).hexdigest()
+    def key(uri: str | None, raw: bytes) -> str:
+        """Key of a request: the target and the exact body (Hops sends identical JSON for identical inputs,
+        tolerances and units; compute.geometry keys its cache the same way)."""
+        h = hashlib.sha256((uri or "").encode("utf-8", "surrogatepass") + b"\0")
+        h.update(raw)
+        return h.hexdigest()
 
     def get(self, key: str) -> bytes | None:
         with self._lock:
@@ -176,38 +176,27 @@ def _solve(uri: str | None):
 def _solve_now(uri: str | None, started: float):
     cfg: Config = current_app.extensions["ghserver.config"]
     raw = request.get_data(cache=False)
-    try:
-        body = json.loads(raw)
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
-        msg = getattr(exc, "msg", type(exc).__name__)
-        _log_access(uri or "", None, 400, started, len(raw))
-        return json_response(protocol.error_body([f"request body is not valid JSON: {msg}"]), 400)
     cache: ResultCache = current_app.extensions["ghserver.cache"]
-    key = None
-    pointer = uri if uri is not None else (body.get("pointer") if isinstance(body, dict) else None)
-    if isinstance(body, dict) and body.get("cachesolve", True) and cache.size > 0 and isinstance(pointer, str):
-        key = cache.key(protocol.pointer_uri(pointer), body)
+    key = cache.key(uri, raw) if cache.size > 0 else None
+    if key is not None:
         hit = cache.get(key)
         if hit is not None:
-            _log_access(protocol.pointer_uri(pointer), body, 200, started, len(raw), cached=True)
+            _log_access(uri or "", 200, started, len(raw), "", cached=True)
             return Response(hit, status=200, mimetype="application/json")
     pool = current_app.extensions.get("ghserver.pool")
     if pool is not None:
-        status, text, comp_uri = pool.solve(raw, uri)
+        status, text, comp_uri, info = pool.solve(raw, uri)
     else:
-        status, resp, comp_uri = protocol.solve(_registry(), body, uri, limits=cfg.limits)
-        text = json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8")
-    if status == 200 and key is not None:
+        status, text, comp_uri, info = protocol.solve_bytes(_registry(), raw, uri, limits=cfg.limits)
+    if status == 200 and key is not None and info.get("cachesolve"):
         cache.put(key, text)
-    _log_access(comp_uri, body, status, started, len(raw))
+    _log_access(comp_uri, status, started, len(raw), info.get("inputs", ""))
     return Response(text, status=status, mimetype="application/json")
 
 
-def _log_access(uri, body, status, started, nbytes, cached=False):
-    access_log.info(
-        "solve %s %d %.1fms in=%dB %s%s", uri or "?", status, 1000 * (time.perf_counter() - started), nbytes,
-        protocol.describe_inputs(body), " (cached)" if cached else "",
-    )
+def _log_access(uri, status, started, nbytes, inputs, cached=False):
+    access_log.info("solve %s %d %.1fms in=%dB %s%s", uri or "?", status, 1000 * (time.perf_counter() - started),
+                    nbytes, inputs, " (cached)" if cached else "")
 
 
 @bp.post("/solve")

@@ -12,6 +12,7 @@ sub-branch per iteration (``{path;i}``), as Grasshopper does.
 """
 from __future__ import annotations
 
+import json
 import logging
 import math
 import re
@@ -355,6 +356,24 @@ def solve(registry: Registry, body: Any, uri: str | None = None, limits: dict | 
         log.exception("solve of %s failed", comp_uri or "?")
         msg = str(exc).splitlines()[0] if str(exc) else ""
         return 500, error_body([f"internal error in {comp_uri or 'solve'}: {type(exc).__name__}: {msg}"[:500]]), comp_uri
+
+
+def solve_bytes(registry: Registry, raw: bytes, uri: str | None = None,
+                limits: dict | None = None) -> tuple[int, bytes, str, dict]:
+    """:func:`solve` on a raw request body: ``(status, response JSON bytes, uri, info)``; never raises.
+
+    ``info`` has ``cachesolve`` (the request's flag) and ``inputs`` (a one-line size summary for the access log).
+    """
+    try:
+        body = json.loads(raw)
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+        msg = getattr(exc, "msg", type(exc).__name__)
+        resp = error_body([f"request body is not valid JSON: {msg}"])
+        return 400, json.dumps(resp).encode("utf-8"), uri or "", {"cachesolve": False, "inputs": ""}
+    status, resp, comp_uri = solve(registry, body, uri, limits=limits)
+    info = {"cachesolve": bool(body.get("cachesolve", True)) if isinstance(body, dict) else False,
+            "inputs": describe_inputs(body)}
+    return status, json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8"), comp_uri, info
 
 
 def describe_inputs(body: Any) -> str:

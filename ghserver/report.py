@@ -837,13 +837,11 @@ def _done(summary: ReportSummary) -> int:
 
 def report_command(args) -> int:
     """``ghserver report``: run :func:`run_report` from parsed arguments; prints where the report is."""
-    from components.mesh import InputError
-
     settings = FULL if args.full else (QUICK if args.quick else DEMO)
     try:
         summary = run_report(args.out, surfaces=_split(args.surfaces), mesh_files=args.meshes,
                              progress=not args.no_progress, strategies=_split(args.strategies), settings=settings)
-    except (InputError, OSError) as exc:
+    except (ValueError, OSError) as exc:  # InputError / MeshError are ValueErrors: a bad file or option
         print(f"ghserver report: {exc}", file=sys.stderr)
         return 2
     return _done(summary)

@@ -69,14 +69,8 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
             raw = conn.recv_bytes()
         except (EOFError, OSError):
             return
-        try:
-            body = json.loads(raw)
-        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
-            status, resp, uri = 400, protocol.error_body([f"request body is not valid JSON: {exc}"]), ""
-        else:
-            status, resp, uri = protocol.solve(registry, body, header.get("uri"), limits=limits)
-        text = json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8")
-        conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb()}).encode())
+        status, text, uri, info = protocol.solve_bytes(registry, raw, header.get("uri"), limits=limits)
+        conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb(), **info}).encode())
         conn.send_bytes(text)
 
 
@@ -126,20 +120,28 @@ class WorkerPool:
         A worker whose resident memory is above this after a solve is replaced, so memory returns to baseline.
     limits : dict
         Input size limits passed to :func:`ghserver.protocol.solve`.
+    queue_timeout : float
+        Seconds a request may wait for an idle worker before it is answered 503 (Hops gives up after 100 s).
     """
 
     def __init__(self, size: int | None = None, factory: str = DEFAULT_FACTORY, timeout: float = 90.0,
                  memory_limit_mb: float | None = None, recycle_mb: float | None = 1024.0,
-                 limits: dict | None = None, start_method: str | None = None):
+                 limits: dict | None = None, start_method: str | None = None, queue_timeout: float = 60.0):
         self.size = max(1, int(size or os.cpu_count() or 1))
         self.factory = factory
         self.timeout = float(timeout)
         self.memory_limit_mb = memory_limit_mb
         self.recycle_mb = recycle_mb
         self.limits = dict(limits or {})
+        self.queue_timeout = float(queue_timeout)
         if start_method is None:
             start_method = "forkserver" if sys.platform.startswith("linux") else "spawn"
         self.ctx = mp.get_context(start_method)
+        if start_method == "forkserver":
+            # workers fork from a server that has already imported the heavy modules: a crashed or recycled
+            # worker is replaced in milliseconds instead of re-importing numpy/scipy/rhino3dm
+            self.ctx.set_forkserver_preload(["numpy", "scipy.sparse", "rhino3dm", "ghserver.protocol",
+                                             factory.partition(":")[0]])
         self._idle: queue.Queue[_Worker] = queue.Queue()
         self._lock = threading.Lock()
         self._all: list[_Worker] = []
@@ -169,17 +171,21 @@ class WorkerPool:
         with self._lock:
             return [w.process.pid for w in self._all]
 
-    def solve(self, raw: bytes, uri: str | None, wait: float | None = None) -> tuple[int, bytes, str]:
-        """Solve one request body; returns ``(status, response JSON bytes, component uri)``. Never raises."""
+    def solve(self, raw: bytes, uri: str | None, wait: float | None = None) -> tuple[int, bytes, str, dict]:
+        """Solve one request body in a worker. Never raises.
+
+        Returns ``(status, response JSON bytes, component uri, info)`` where ``info`` holds ``cachesolve`` and the
+        ``inputs`` summary for the access log (see :func:`ghserver.protocol.solve_bytes`).
+        """
         from ghserver.protocol import error_body
 
         def err(status, msg):
-            return status, json.dumps(error_body([msg]), ensure_ascii=False).encode("utf-8"), uri or ""
+            return status, json.dumps(error_body([msg]), ensure_ascii=False).encode("utf-8"), uri or "", {}
 
         if self._closed:
             return err(503, "server is shutting down")
         try:
-            w = self._idle.get(timeout=wait if wait is not None else self.timeout)
+            w = self._idle.get(timeout=wait if wait is not None else self.queue_timeout)
         except queue.Empty:
             return err(503, "all solver processes are busy; try again")
         try:
@@ -200,8 +206,8 @@ class WorkerPool:
             text = w.conn.recv_bytes()
         except (EOFError, OSError, ValueError) as exc:
             code = w.process.exitcode
-            log.error("worker %d died during a solve of %s (exit code %s, %s)", w.process.pid, uri, code,
-                      type(exc).__name__)
+            log.error("worker %d died during a solve of %s (exit code %s, %s)", w.process.pid, uri or "a request",
+                      code, type(exc).__name__)
             self._replace(w)
             return err(500, f"the solver process crashed while solving {uri or 'the request'} "
                             f"(exit code {code}); the server is fine, other solves are unaffected")
@@ -211,7 +217,8 @@ class WorkerPool:
             self._replace(w)
         else:
             self._idle.put(w)
-        return int(header["status"]), text, header.get("uri", uri or "")
+        info = {k: header[k] for k in ("cachesolve", "inputs") if k in header}
+        return int(header["status"]), text, header.get("uri", uri or ""), info
 
     def close(self) -> None:
         self._closed = True
