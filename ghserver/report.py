@@ -660,17 +660,18 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     ReportSummary
         Paths written, number of rows and images, elapsed seconds.
     """
-    from components.mesh import write_obj
+    from components.mesh import InputError, write_obj
     from components.samples import SAMPLE_NAMES
     from components.strategies import get_strategy, run_strategy, strategy_names
 
     t0 = time.perf_counter()
     settings = settings or (QUICK if quick else DEMO)
     mode = "custom" if settings not in (QUICK, DEMO, FULL) else {QUICK: "quick", DEMO: "demo", FULL: "full"}[settings]
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    _clean(out)
     names = list(SAMPLE_NAMES if surfaces is None else surfaces)
+    unknown = [n for n in names if n not in SAMPLE_NAMES]
+    if unknown:
+        raise InputError("surfaces", f"unknown built-in surface(s) {', '.join(map(repr, unknown))}; valid: "
+                         f"{', '.join(SAMPLE_NAMES)}")
     strat_names = list(strategies or strategy_names())
     titles = {n: (get_strategy(n).title, get_strategy(n).description) for n in strat_names}
     surfs = _builtin_surfaces(names, settings)
@@ -679,6 +680,11 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
         s = _file_surface(f, settings, taken)
         taken.add(s.name)
         surfs.append(s)
+    if not surfs:
+        raise InputError("surfaces", "nothing to report on: no built-in surface and no mesh file")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    _clean(out)
     # progress units: one per strategy run, one per picture (estimated: 3 per mesh + 1 histogram)
     bar = Progress(len(surfs) * len(strat_names) * 8 + 3, enabled=progress)
     rows: list[dict] = []

@@ -271,6 +271,14 @@ def test_report_command_line(tmp_path, capsys):
     assert "report written to" in capsys.readouterr().out
     assert rp.main(["report", "--quick", "--no-progress", "--strategies", "nope", "--out", str(tmp_path)]) == 2
     assert "strategy" in capsys.readouterr().err
+    # bad options fail before the previous report is touched
+    before = sorted(p.name for p in (tmp_path / "img").iterdir())
+    assert rp.main(["report", "--quick", "--surfaces", "blob", "--out", str(tmp_path)]) == 2
+    assert "surfaces" in capsys.readouterr().err
+    assert rp.main(["report", "--quick", "--surfaces", "none", "--out", str(tmp_path)]) == 2
+    assert rp.main(["report", "--quick", str(tmp_path / "missing.obj"), "--out", str(tmp_path)]) == 2
+    assert "missing.obj" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "img").iterdir()) == before and before
 
 
 # ----------------------------------------------------------------------------------------------
