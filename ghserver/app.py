@@ -126,6 +126,12 @@ def _report_path() -> Path | None:
 
 
 @bp.get("/report")
+def report_redirect():
+    # the report's pictures are relative links (img/...): they resolve only below a URL ending in "/"
+    return Response(status=308, headers={"Location": "/report/"})
+
+
+@bp.get("/report/")
 @bp.get("/report/<path:name>")
 def report(name: str = "report.html"):
     cfg = current_app.extensions["ghserver.config"]
@@ -133,10 +139,11 @@ def report(name: str = "report.html"):
         return json_response({"errors": ["no report folder is configured (ghserver serve --report-dir)"]}, 404)
     root = Path(cfg.report_dir).resolve()
     target = (root / name).resolve()
-    if root not in target.parents and target != root or not target.is_file():
-        return json_response({"errors": [f"no report file {name!r}; run `ghserver report` first"]}, 404)
+    if root not in target.parents or not target.is_file():
+        return json_response({"errors": [f"no report file {name!r} in the report folder; run `ghserver demo` or "
+                                          "`ghserver report` first"]}, 404)
     mime = {".html": "text/html", ".png": "image/png", ".csv": "text/csv", ".json": "application/json",
-            ".svg": "image/svg+xml"}.get(target.suffix.lower(), "application/octet-stream")
+            ".svg": "image/svg+xml", ".obj": "text/plain"}.get(target.suffix.lower(), "application/octet-stream")
     return Response(target.read_bytes(), mimetype=mime)
 
 
@@ -282,10 +289,10 @@ def catalogue_html(registry: Registry, has_report: bool = False) -> str:
             f'<div class="io"><div><h3>Inputs</h3><ul>{ins}</ul></div>'
             f'<div><h3>Outputs</h3><ul>{outs}</ul></div></div></section>'
         )
-    report = ('<p><a href="/report">Comparison report</a> of all strategies on the built-in surfaces.</p>'
+    report = ('<p><a href="/report/">Comparison report</a> of all strategies on the built-in surfaces.</p>'
               if has_report else
-              '<p>No comparison report yet: run <code>ghserver report</code> (or <code>ghserver demo</code>) '
-              'and it appears at <a href="/report">/report</a>.</p>')
+              '<p>No comparison report yet: run <code>ghserver demo</code> (or <code>ghserver report</code>) in '
+              'the folder the server was started from, and it appears at <a href="/report/">/report/</a>.</p>')
     toc = "".join(f'<li><a href="#{e(c.uri)}">{e(c.uri)}</a></li>' for c in registry)
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>PQ mesh components</title>

@@ -9,6 +9,8 @@ import logging
 import socket
 import sys
 
+from ghserver import report  # importing it does not load matplotlib
+
 log = logging.getLogger("ghserver")
 
 DEFAULT_HOST = "127.0.0.1"
@@ -152,7 +154,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--threads", type=int, default=8, help="worker threads answering requests (default 8)")
     s.add_argument("--cache-size", type=int, default=64, help="solved results kept in memory; 0 disables (default 64)")
     s.add_argument("--max-body-mb", type=float, default=512, help="largest request body in MB (default 512)")
-    s.add_argument("--report-dir", default=None, help="folder whose report.html is served at /report")
+    s.add_argument("--report-dir", default=report.DEFAULT_OUT,
+                   help=f"folder whose report.html is served at /report/ (default ./{report.DEFAULT_OUT}, "
+                        "where `ghserver demo` writes)")
     s.add_argument("--workers", type=int, default=None,
                    help="solver processes (default: one per core; 0 solves inside the server process)")
     s.add_argument("--solve-timeout", type=float, default=90.0, help="seconds a solve may run (default 90)")
@@ -166,6 +170,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--reuse-port", action="store_true",
                    help="share the port with other ghserver processes (scale-out on one address; not on Windows)")
     s.set_defaults(func=_serve)
+    r = sub.add_parser("report", help="run every strategy on the built-in surfaces (and mesh files): HTML report")
+    report.add_report_arguments(r)
+    r.set_defaults(func=report.report_command)
+    d = sub.add_parser("demo", help="the comparison report on the built-in surfaces (under 2 minutes)")
+    report.add_demo_arguments(d)
+    d.set_defaults(func=report.demo_command)
     ls = sub.add_parser("list", help="print the component catalogue")
     ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")
     ls.set_defaults(func=_list)

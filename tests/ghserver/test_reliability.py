@@ -133,7 +133,9 @@ def test_report_route_cannot_escape_its_folder(tmp_path, echo_registry):
     secret = tmp_path.parent / "secret.txt"
     secret.write_text("no")
     client = create_app(Config(report_dir=str(tmp_path)), registry=echo_registry).test_client()
-    assert client.get("/report").status_code == 200
+    r = client.get("/report")
+    assert r.status_code == 308 and r.headers["Location"] == "/report/"
+    assert client.get("/report/").status_code == 200 and client.get("/report/report.html").status_code == 200
     for path in ("/report/../secret.txt", "/report/%2e%2e/secret.txt", "/report//etc/passwd"):
         r = client.get(path)
         assert r.status_code == 404 and b"no" != r.data
