@@ -98,6 +98,42 @@ STEPS: list[Step] = [
 
 
 # ----------------------------------------------------------------------------------------------
+# steps 5, 7, 8 (parametrization, extraction, end-to-end); panels of 2.5 mean edge lengths
+
+
+def _field(V, T):
+    from components.parametrize import direction_field
+
+    return direction_field(V, T, field="conjugate", alignment=0.1)
+
+
+def parametrize_ours(V, T):
+    from components.parametrize import seamless_parametrization
+
+    U, W = _field(V, T)
+    return seamless_parametrization(V, T, U, W, 2.5 * _mean_edge(V, T))
+
+
+def candidate_ours(V, T):
+    from components.pipelines import candidate_mesh
+
+    return candidate_mesh((V, T), 2.5 * _mean_edge(V, T))
+
+
+def pq_end_to_end_ours(V, T):
+    from components.pipelines import pq_from_conjugate_field
+
+    return pq_from_conjugate_field((V, T), 2.5 * _mean_edge(V, T), time_budget=30.0)
+
+
+STEPS += [
+    Step("field + seamless parametrization (L=2.5e)", parametrize_ours, repeat=1),
+    Step("candidate: field+param+extract (L=2.5e)", candidate_ours, repeat=1),
+    Step("pq_from_conjugate_field end-to-end", pq_end_to_end_ours, repeat=1),
+]
+
+
+# ----------------------------------------------------------------------------------------------
 # inputs
 
 
