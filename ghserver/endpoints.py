@@ -6,8 +6,8 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import (conical, curvature, metrics, parametrize_conformal, planarize, pull, remesh, samples, subdivide,
-                        surfaces)
+from components import (coarse, conical, curvature, metrics, parametrize_conformal, planarize, pull, remesh, samples,
+                        singularities, subdivide, subdivision_pipeline, surfaces)
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}
@@ -50,6 +50,10 @@ COMPONENTS = [
     # subdivision strategy
     declare(subdivide.subdivide, "subdivision/catmull_clark", nicknames=M),
     declare(pull.pull_to_surface, "subdivision/pull_to_surface", nicknames={**M, "surface": "S"}),
+    declare(singularities.singularity_analysis, "subdivision/singularity_analysis", nicknames={"surface": "S"}),
+    declare(coarse.coarse_quad_mesh, "subdivision/coarse_mesh", nicknames={"surface": "S"}),
+    declare(subdivision_pipeline.pq_from_subdivision, "subdivision/pq_from_subdivision",
+            nicknames={"surface": "S", "coarse": "C"}),
 ]
 
 
