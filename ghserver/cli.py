@@ -134,6 +134,14 @@ def _list(args) -> int:
     from ghserver.endpoints import build_registry
 
     reg = build_registry()
+    if args.markdown:
+        print("| component | inputs | outputs | what it does |")
+        print("|---|---|---|---|")
+        for c in reg:
+            ins = ", ".join(f"`{p.name}`" + ("?" if p.optional else "") for p in c.inputs)
+            outs = ", ".join(f"`{p.name}`" for p in c.outputs)
+            print(f"| `{c.uri}` | {ins} | {outs} | {c.description.replace('|', '&#124;')} |")
+        return 0
     for c in reg:
         ins = ", ".join(f"{p.name}:{p.kind}{'[]' if p.access == 'list' else ''}{'?' if p.optional else ''}"
                         for p in c.inputs)
@@ -151,7 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("serve", help="run the Hops component server")
     s.add_argument("--host", default=DEFAULT_HOST, help=f"address to bind (default {DEFAULT_HOST}, loopback only)")
     s.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT})")
-    s.add_argument("--threads", type=int, default=8, help="worker threads answering requests (default 8)")
+    s.add_argument("--threads", type=int, default=16,
+                   help="threads answering HTTP requests (default 16; 4 are kept free for metadata requests)")
     s.add_argument("--cache-size", type=int, default=64, help="solved results kept in memory; 0 disables (default 64)")
     s.add_argument("--max-body-mb", type=float, default=512, help="largest request body in MB (default 512)")
     s.add_argument("--report-dir", default=report.DEFAULT_OUT,
@@ -178,6 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=report.demo_command)
     ls = sub.add_parser("list", help="print the component catalogue")
     ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")
+    ls.add_argument("--markdown", action="store_true", help="a Markdown table (the one in README.md)")
     ls.set_defaults(func=_list)
     return parser
 
