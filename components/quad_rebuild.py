@@ -651,6 +651,10 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     for v in range(nn):
         head[v] = head_of_rep[rep[v]]
     E = head[edges]
+    # a crossing that took a boundary end in is on the boundary now
+    kind = kind.copy()
+    merged_b = head[(kind == NODE_BOUNDARY) & (head != np.arange(nn))]
+    kind[merged_b[kind[merged_b] == NODE_CROSSING]] = NODE_BOUNDARY
     keep = E[:, 0] != E[:, 1]
     # duplicate edges between the same nodes: keep the boundary edge, else the first
     key = np.minimum(E[:, 0], E[:, 1]) * nn + np.maximum(E[:, 0], E[:, 1])

@@ -1,0 +1,93 @@
+"""Conical optimization: planarity-aware conical verdict on published meshes, optimization of a perturbed
+curvature net to a conical mesh with an exact face offset, the published component and its typed errors."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.conical import conical_check, face_offset
+from components.conical_opt import conical_check_planar, conical_optimize, optimize_conical
+from components.mesh import InputError, MeshError, boundary_vertex_mask, quad_grid, read_mesh
+from components.planarize import face_planarity, planarize_mesh
+from tests.components.test_conical import revolution_net, translation_net
+from tests.conftest import shared_file
+
+
+def test_published_conical_mesh_passes_as_is():
+    V, F = read_mesh(shared_file("meshes/dos/obj_pq__conical1.obj"))
+    assert not conical_check(V, F, 1e-4).passed.all()  # the angle criterion alone is perturbed by planarity 4e-5
+    chk = conical_check_planar(V, F, 1e-4)
+    assert chk.passed.all() and chk.checked.sum() > 900
+    assert chk.max_criterion > 1e-4  # reported beside the verdict
+    assert conical_check_planar(V, F, 0.0).passed.all()  # even with no slack but the planarity's
+
+
+def test_non_conical_pq_meshes_fail():
+    V, F = read_mesh(shared_file("meshes/dos/obj_pq__planarizednormalized_six_quad.obj"))
+    assert face_planarity(V, F).max() < 1e-4
+    assert not conical_check_planar(V, F, 1e-4).passed.all()
+    Vt, Ft = translation_net(8)  # exactly planar quads, not conical
+    assert face_planarity(Vt, Ft).max() < 1e-12
+    assert not conical_check_planar(Vt, Ft, 1e-4).passed.all()
+
+
+def test_planarized_hypar_grid_fails(hypar_grid):
+    V, Q = hypar_grid
+    # planarized while staying on the hypar (without the reference the solver flattens it: a plane is conical)
+    res = planarize_mesh(V, Q, (V, Q), tolerance=1e-9)
+    X = res.mesh[0]
+    assert res.max_planarity < 1e-3
+    chk = conical_check_planar(X, Q, 1e-4)
+    assert not chk.passed.all() and chk.deviation[chk.checked].max() > 0.01
+
+
+def test_revolution_net_is_conical():
+    V, F = revolution_net()
+    chk = conical_check_planar(V, F, 1e-6)
+    assert chk.passed.all() and chk.checked.any()
+
+
+def _noisy_revolution():
+    V, F = revolution_net(12, 16)
+    rng = np.random.default_rng(1)
+    return V, F, V + 0.004 * rng.standard_normal(V.shape)
+
+
+def test_optimize_conical_and_exact_face_offset():
+    V, F, Vn = _noisy_revolution()
+    res = optimize_conical(Vn, F, (V, F))
+    assert res.converged
+    assert res.max_planarity <= 1e-4 and res.max_criterion < 1e-4
+    assert res.max_planarity < 1e-9  # polished
+    assert res.mean_closeness <= 0.02 * res.mean_edge_length
+    d = 0.3 * res.mean_edge_length
+    off = face_offset(res.V, F, d)
+    assert off.face_error.max() <= 1e-6 * d
+    # consecutive node axes are coplanar (interior edges; boundary ones by the parallel-boundary fit)
+    assert off.axis_coplanarity.max() < 1e-6
+    # without the polish the offset error is planarity-limited
+    res2 = optimize_conical(Vn, F, (V, F), polish=False)
+    assert res2.max_planarity <= 1e-4 and res2.max_criterion < 1e-4
+
+
+def test_published_component():
+    res = conical_optimize(quad_grid(3, 3))
+    assert res.is_conical and res.max_planarity < 1e-12
+    V, F, Vn = _noisy_revolution()
+    res = conical_optimize((Vn, F), reference=(V, F))
+    assert res.is_conical and res.relative_closeness < 0.02
+    assert res.criterion.shape == (len(V),)
+
+
+def test_bad_inputs():
+    V, F = quad_grid(3, 3)
+    with pytest.raises(InputError, match="tolerance"):
+        conical_optimize((V, F), tolerance=0.0)
+    with pytest.raises(MeshError, match="reference"):
+        conical_optimize((V, F), reference="surface")
+    with pytest.raises(MeshError, match="mesh"):
+        conical_optimize(V)
+    with pytest.raises(InputError, match="boundary"):
+        conical_optimize((V, F), boundary="round")
+    with pytest.raises(InputError, match="closeness_weight"):
+        conical_optimize((V, F), closeness_weight=-1)

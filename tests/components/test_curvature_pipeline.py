@@ -1,0 +1,86 @@
+"""End-to-end curvature-network strategy on the built-in samples and libigl's inspired_mesh (the network traced with
+the private test tracer of test_curvature_network until components.streamlines lands)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.conical import face_offset
+from components.curvature_pipeline import curvature_pipeline, pq_from_curvature_network
+from components.mesh import InputError, MeshError, boundary_vertex_mask, quad_grid, read_mesh, validate_mesh
+from components.samples import sample_mesh
+from tests.components.test_curvature_network import trace_evenly
+from tests.conftest import shared_file
+
+
+def _surface(name):
+    if name == "inspired":
+        return read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    V, T, _ = sample_mesh(name, 60)
+    return V, T
+
+
+CASES = [
+    ("saddle", 2.0),
+    ("dome", 2.0),
+    ("inspired", 2.0),
+    pytest.param("wave", 2.0, marks=pytest.mark.xfail(
+        reason="mixed sample: the private test tracer leaves T-junction clusters around the crests", strict=False)),
+]
+
+
+@pytest.mark.parametrize("name,h", CASES)
+def test_end_to_end(name, h):
+    V, T = _surface(name)
+    d = 0.1 * h
+    res = curvature_pipeline((V, T), h, offset=d, tracer=trace_evenly)
+    Vc, Fc = res.candidate
+    validate_mesh(Vc, Fc)  # manifold, oriented
+    assert res.quad_fraction >= 0.9
+    assert res.mean_angle_error < 10.0
+    # conical optimization
+    assert res.max_planarity <= 1e-4
+    assert res.max_criterion < 1e-4
+    assert res.relative_closeness <= 0.02
+    assert res.is_conical
+    # face offset at d: every face plane at d ± 1e-6 d, consecutive node axes coplanar
+    Vo, Fo = res.optimized
+    off = face_offset(Vo, Fo, d)
+    assert off.face_error.max() <= 1e-6 * d
+    assert res.max_offset_error <= 1e-6 * d
+    interior = ~boundary_vertex_mask(Fo, len(Vo))[off.E].any(axis=1)
+    assert off.axis_coplanarity[interior].max() < 1e-6
+    assert res.node_axes.shape == (len(Vo), 2, 3)
+
+
+def test_no_optimization_and_zero_offset():
+    V, T = _surface("saddle")
+    res = curvature_pipeline((V, T), 2.5, optimize=False, tracer=trace_evenly)
+    assert res.optimized[0] is res.candidate[0]
+    assert res.offset_mesh[0] is res.optimized[0] and res.max_offset_error == 0.0
+    assert res.candidate_max_planarity == res.max_planarity
+
+
+def test_bad_inputs():
+    V, T = _surface("saddle")
+    with pytest.raises(InputError, match="panel_size"):
+        pq_from_curvature_network((V, T), panel_size=-2.0)
+    with pytest.raises(InputError, match="offset"):
+        pq_from_curvature_network((V, T), panel_size=2.0, offset=float("nan"))
+    with pytest.raises(InputError, match="boundary_cells"):
+        pq_from_curvature_network((V, T), panel_size=2.0, boundary_cells="round")
+    Vo = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+    To = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    with pytest.raises(MeshError, match="no boundary"):
+        pq_from_curvature_network((Vo, To), panel_size=0.5)
+
+
+def test_non_disk_is_refused():
+    # an annulus of a cone (anisotropic everywhere): the plane map needs a disk
+    ang, rad = np.meshgrid(np.linspace(0, 2 * np.pi, 33)[:-1], np.linspace(1, 2, 6), indexing="ij")
+    V = np.stack([rad * np.cos(ang), rad * np.sin(ang), 0.5 * rad], -1).reshape(-1, 3)
+    idx = np.arange(len(V)).reshape(32, 6)
+    Q = np.array([[idx[i, j], idx[(i + 1) % 32, j], idx[(i + 1) % 32, j + 1], idx[i, j + 1]]
+                  for i in range(32) for j in range(5)])
+    with pytest.raises(MeshError, match="disk"):
+        curvature_pipeline((V, Q), 0.3, tracer=trace_evenly)
