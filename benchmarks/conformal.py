@@ -177,8 +177,37 @@ def table_offsets(quick):
               f"| {off.axis_coplanarity.max():.1e} / {np.median(off.axis_coplanarity):.1e} | {crit:.1e} |")
 
 
+def table_curvature_pipeline(quick):
+    """pq_from_curvature_network step timings on ~5k and ~20k triangles (the network traced by
+    components.streamlines when present, else by the private test tracer of tests/components)."""
+    from components.curvature_pipeline import curvature_pipeline
+    from components.samples import sample_mesh
+
+    tracer = None
+    try:
+        import components.streamlines  # noqa: F401
+    except ImportError:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        from tests.components.test_curvature_network import trace_evenly as tracer
+    print("\n### pq_from_curvature_network (tracer: " + ("components.streamlines" if tracer is None else
+                                                         "private test tracer") + ")\n")
+    print("| surface | triangles | panel | quads % | angle err ° | network s | rebuild s | optimize s | total s "
+          "| max planarity | max criterion | closeness / edge | offset err / d |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    cases = [("saddle", 60, 2.0), ("dome", 60, 2.0)] + ([] if quick else [("saddle", 110, 1.5), ("dome", 120, 1.5)])
+    for name, res, h in cases:
+        V, T, _ = sample_mesh(name, res)
+        tm = {}
+        r = curvature_pipeline((V, T), h, offset=0.1 * h, tracer=tracer, timings=tm)
+        print(f"| {name} | {len(T)} | {h:g} | {100 * r.quad_fraction:.1f} | {r.mean_angle_error:.2f} "
+              f"| {tm['network']:.2f} | {tm['rebuild']:.2f} | {tm.get('optimize', 0):.2f} | {tm['total']:.2f} "
+              f"| {r.max_planarity:.1e} | {r.max_criterion:.1e} | {r.relative_closeness:.3f} "
+              f"| {r.max_offset_error / (0.1 * h):.1e} |")
+
+
 if __name__ == "__main__":
     quick = "--quick" in sys.argv
     table_maps(quick)
     table_orderings(quick)
     table_offsets(quick)
+    table_curvature_pipeline(quick)

@@ -9,8 +9,8 @@ second order and their limit is a conical mesh (Liu et al. 2006). This module
    threshold (``κ0`` = 10% of the median ``|k1| + |k2|``, so nearly flat spots count as umbilic too) — the
    principal directions are undefined there,
 3. traces both families with the project's streamline tracer (:func:`components.streamlines.evenly_spaced_streamlines`,
-   RK4 on the surface, evenly spaced seeding at the panel size) on the field ``U = PD1, W = PD2`` with the umbilic
-   triangles zeroed (no seeds there), and
+   RK4 on the surface, evenly spaced seeding at the panel size) on the field ``U = PD1, W = PD2``, the first seed
+   in the most central anisotropic triangle, and
 4. **skips** the umbilic regions: every polyline is cut where it enters one, pieces shorter than half a panel are
    dropped. What was done is said in ``warnings``; a surface that is umbilic almost everywhere (a sphere or plane
    patch) is refused with a clear error, since it has no curvature network.
@@ -140,6 +140,26 @@ def _polylines(out) -> list[np.ndarray]:
     return lines
 
 
+def _tracer_options(tracer, V, T, fld, h) -> dict:
+    """Keyword options the tracer accepts: a first seed in the most central anisotropic triangle, the shortest
+    line kept (half a panel)."""
+    import inspect
+
+    try:
+        params = inspect.signature(tracer).parameters
+    except (TypeError, ValueError):
+        return {}
+    out = {}
+    if "seeds" in params and (~fld.umbilic).any():
+        cen = V[T].mean(axis=1)
+        ok = np.flatnonzero(~fld.umbilic)
+        i = ok[np.argmin(np.linalg.norm(cen[ok] - V.mean(axis=0), axis=1) / (0.5 + fld.anisotropy[ok]))]
+        out["seeds"] = cen[i][None, :]
+    if "min_length" in params:
+        out["min_length"] = 0.5 * h
+    return out
+
+
 def _cut_umbilic(V, T, lines, umbilic, min_length):
     """Split polylines where they run through umbilic triangles; drop pieces shorter than ``min_length``."""
     if not umbilic.any() or not lines:
@@ -182,8 +202,8 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     radius : int
         Ring radius of the curvature fit.
     tracer : callable, optional
-        ``tracer(V, T, U, W, family, separation) -> list of (k, 3) polylines``; default the project's
-        :func:`components.streamlines.evenly_spaced_streamlines`.
+        ``tracer(V, T, U, W, family, separation, [seeds=, min_length=]) -> list of (k, 3) polylines``; default the
+        project's :func:`components.streamlines.evenly_spaced_streamlines`.
 
     Returns
     -------
@@ -212,13 +232,11 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
         if tracer is None:
             raise RuntimeError("the streamline tracer components.streamlines.evenly_spaced_streamlines is not "
                                "available: pass tracer=")
-    U = fld.PD1.copy()
-    W = fld.PD2.copy()
-    U[fld.umbilic] = 0.0
-    W[fld.umbilic] = 0.0
+    U, W = fld.PD1, fld.PD2
+    kwargs = _tracer_options(tracer, V, T, fld, h)
     fams, ncut = [], 0
     for family in (0, 1):
-        lines = _polylines(tracer(V, T, U, W, family, h))
+        lines = _polylines(tracer(V, T, U, W, family, h, **kwargs))
         lines, c = _cut_umbilic(V, T, lines, fld.umbilic, 0.5 * h)
         ncut += c
         fams.append(lines)

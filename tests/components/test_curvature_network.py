@@ -136,9 +136,12 @@ def test_principal_field_dome_has_umbilic_spots():
     assert 0 < fld.umbilic.mean() < 0.2
 
 
-def test_network_on_saddle(saddle):
+@pytest.mark.parametrize("tracer", ["project", "test"])
+def test_network_on_saddle(saddle, tracer):
     V, T = saddle
-    net = principal_network(V, T, 2.5, tracer=trace_evenly)
+    if tracer == "project":
+        pytest.importorskip("components.streamlines")
+    net = principal_network(V, T, 2.5, tracer=trace_evenly if tracer == "test" else None)
     assert len(net.lines_1) >= 5 and len(net.lines_2) >= 5
     from components.proximity import closest_points
 
@@ -205,6 +208,17 @@ def test_bad_inputs(saddle):
     To = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
     with pytest.raises(MeshError, match="closed"):
         curvature_network((Vo, To), panel_size=0.5)
+
+
+def test_dome_umbilics_are_skipped_with_a_warning():
+    pytest.importorskip("components.streamlines")
+    V, T, _ = sample_mesh("dome", 40)
+    net = principal_network(V, T, 2.0)
+    assert net.umbilic_fraction > 0 and any("umbilic regions" in w for w in net.warnings)
+    from components.proximity import TriangleIndex
+
+    P = np.concatenate(net.lines_1 + net.lines_2)
+    assert not net.field.umbilic[TriangleIndex(V, T).query(P).faces].any()  # no line runs through an umbilic region
 
 
 def test_missing_tracer_is_a_clear_error(saddle, monkeypatch):
