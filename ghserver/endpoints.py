@@ -6,8 +6,9 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import (coarse, conical, curvature, metrics, parametrize_conformal, planarize, pull, remesh, samples,
-                        singularities, subdivide, subdivision_pipeline, surfaces)
+from components import (coarse, conical, conical_opt, curvature, curvature_network, curvature_pipeline, metrics,
+                        parametrize_conformal, planarize, pull, quad_rebuild, remesh, samples, singularities, subdivide,
+                        subdivision_pipeline, surfaces)
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}
@@ -44,7 +45,11 @@ COMPONENTS = [
     declare(remesh.remesh, "fields/remesh", nicknames=M),
     declare(curvature.principal_curvature, "fields/principal_curvature", nicknames=M),
     # curvature-network strategy: conformal map, conical meshes, offsets
+    declare(curvature_network.curvature_network, "network/curvature_network", nicknames=M),
     declare(parametrize_conformal.conformal_map, "parametrize/conformal_map", nicknames=M),
+    declare(quad_rebuild.quad_rebuild, "network/quad_rebuild", nicknames=M),
+    declare(conical_opt.conical_optimize, "conical/optimize", nicknames={**M, "reference": "R"}),
+    declare(curvature_pipeline.pq_from_curvature_network, "network/pq_from_curvature_network", nicknames=M),
     declare(conical.conical_analysis, "conical/analysis", nicknames=M),
     declare(conical.offset_mesh, "conical/offset", nicknames=M),
     # subdivision strategy

@@ -62,6 +62,27 @@ def _surface():
     return NurbsSurface(3, 3, P, np.ones((4, 4)), np.array([0, 0, 0, 1, 1, 1.0]), np.array([0, 0, 0, 1, 1, 1.0]))
 
 
+def saddle_tri():
+    from components.samples import sample_mesh
+
+    V, T, _ = sample_mesh("saddle", 16)
+    return V, T
+
+
+def _revolution_net():
+    """Meridians × parallels of a paraboloid of revolution (a conical net), slightly perturbed."""
+    n_t, n_r = 16, 5
+    th = np.linspace(0, 2 * np.pi, n_t, endpoint=False)
+    r = np.linspace(1.0, 3.0, n_r + 1)
+    R, TH = np.meshgrid(r, th, indexing="ij")
+    V = np.stack([R * np.cos(TH), R * np.sin(TH), 0.2 * R ** 2], axis=-1).reshape(-1, 3)
+    idx = np.arange(len(V)).reshape(n_r + 1, n_t)
+    F = [[idx[i, j], idx[i + 1, j], idx[i + 1, (j + 1) % n_t], idx[i, (j + 1) % n_t]]
+         for i in range(n_r) for j in range(n_t)]
+    V = V + 0.003 * np.random.default_rng(1).standard_normal(V.shape)
+    return V, np.array(F)
+
+
 def check_planarity(r):
     assert r.planarity.shape == (64,) and r.max_planarity > 0.01 and np.isclose(r.max_planarity, r.planarity.max())
 
@@ -95,6 +116,13 @@ CASES = {
     "fields/remesh": (lambda: dict(mesh=dome_tri(), target_length=3.0),
                       lambda r: 2.0 < r.mean_edge < 4.0 and r.max_deviation < 0.03),
     "fields/principal_curvature": (lambda: dict(mesh=dome_tri()), lambda r: np.median(r.gaussian) > 0),
+    "network/curvature_network": (lambda: dict(mesh=saddle_tri(), panel_size=3.0),
+                                  lambda r: r.count_1 > 3 and r.count_2 > 3 and len(r.lines_1) == r.count_1),
+    "network/quad_rebuild": (lambda: dict(mesh=saddle_tri(), panel_size=3.0), lambda r: r.quad_fraction > 0.9),
+    "conical/optimize": (lambda: dict(mesh=_revolution_net()), lambda r: r.max_planarity <= 1e-4 and r.is_conical),
+    "network/pq_from_curvature_network": (lambda: dict(mesh=saddle_tri(), panel_size=3.0, offset=0.2),
+                                          lambda r: r.max_planarity <= 1e-4 and r.max_criterion < 1e-4
+                                          and r.max_offset_error < 1e-6 * 0.2),
     "parametrize/conformal_map": (lambda: dict(mesh=dome_tri()), lambda r: r.flipped == 0 and r.mean_ratio < 1.2),
     "conical/analysis": (lambda: dict(mesh=quad_grid(4, 4)), lambda r: r.is_conical and r.max_criterion < 1e-12),
     "conical/offset": (lambda: dict(mesh=quad_grid(4, 4), distance=0.5),
