@@ -8,12 +8,10 @@ vertex, while its soft goals keep the mesh close to the design surface and fair.
 to be exact, since a planarity ``p`` shows up as an offset error of about ``p`` × edge length, independent of
 ``d``. The Gauss-Newton steps converge quadratically, so the polish costs a few more iterations.
 
-It also gives a conical verdict that is robust to the input's planarity (:func:`conical_check_planar`): the angle
-criterion is exact only for planar faces, while Liu et al. define a conical vertex by its face normals lying on a
-cone of revolution. The verdict uses the cone-fit deviation of the face normals, with a tolerance widened by the
-planarity of the faces around each vertex; the angle criterion is reported beside it.
+The conical verdict is :func:`components.conical.conical_check` (cone fit of the face normals, tolerance widened
+by the local planarity; the angle criterion reported beside it).
 
-Array-level: :func:`conical_check_planar`, :func:`optimize_conical`. Published: :func:`conical_optimize`.
+Array-level: :func:`optimize_conical`. Published: :func:`conical_optimize`.
 """
 from __future__ import annotations
 
@@ -23,14 +21,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.conical import (
-    ConicalCheck,
-    _corners,
-    cone_fit,
-    conical_criterion,
-    face_offset,
-)
-from components.mesh import InputError, MeshError, edge_topology, face_sizes, validate_mesh
+from components.conical import conical_check, conical_criterion
+from components.mesh import InputError, MeshError, edge_topology, validate_mesh
 from components.types import Mesh, Numbers
 
 log = logging.getLogger(__name__)
@@ -38,77 +30,9 @@ log = logging.getLogger(__name__)
 __all__ = [
     "ConicalOptimizeResult",
     "ConicalOptimization",
-    "conical_check_planar",
     "conical_optimize",
     "optimize_conical",
 ]
-
-PLANARITY_FACTOR = 4.0  # deviation slack per unit of local planarity (conical1.obj needs 2.2)
-
-
-def _face_planarity(V, F):
-    from components.planarize import face_planarity
-
-    return face_planarity(V, F)
-
-
-def conical_check_planar(V: np.ndarray, F: np.ndarray, tol: float = 1e-4,
-                         planarity_factor: float = PLANARITY_FACTOR) -> ConicalCheck:
-    """Conical verdict from the cone fit of the face normals, with a tolerance scaled to the faces' planarity.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-        Vertex positions.
-    F : (m, k) int64
-        Faces, consistently oriented.
-    tol : float
-        Accepted cone-normal deviation (radians) for exactly planar faces.
-    planarity_factor : float
-        At a vertex whose faces have planarity up to ``p`` (scale-free), the accepted deviation is
-        ``tol + planarity_factor · p``: a face that is not planar has a least-squares normal uncertain by about
-        that much.
-
-    Returns
-    -------
-    ConicalCheck
-        The same record as :func:`components.conical.conical_check`: ``criterion`` (n,) ``|ω1 − ω2 + ω3 − ω4|``
-        at interior valence-4 vertices (NaN elsewhere, reported only), ``checked`` (n,) interior vertices with at
-        least four faces, ``passed`` (n,) cone-normal deviation within the scaled tolerance (True where not
-        checked), ``deviation`` (n,) cone-normal deviation (radians), ``max_criterion``.
-
-    Notes
-    -----
-    Liu, Pottmann, Wallner, Yang, Wang 2006, §3: a vertex is conical when its face normals lie on a circle of the
-    Gauss sphere (a cone of revolution); for planar faces this is equivalent to ``ω1 + ω3 = ω2 + ω4`` at valence 4.
-    The deviation (half the spread of the angles between the fitted axis and the normals) stays meaningful for
-    faces planar only to a tolerance, where the angle criterion is perturbed: ``dos/obj_pq__conical1.obj``
-    (planarity 4e-5) has deviations up to 3.8e-5 rad but an angle criterion up to 7.5e-4 rad.
-
-    Example
-    -------
-    >>> from components.mesh import quad_grid
-    >>> bool(conical_check_planar(*quad_grid(3, 3)).passed.all())
-    True
-    """
-    V = np.asarray(V, np.float64)
-    F = np.asarray(F, np.int64)
-    n = len(V)
-    verts, crit = conical_criterion(V, F)
-    out = np.full(n, np.nan)
-    out[verts] = np.abs(crit)
-    C = _corners(F)
-    count = np.bincount(C.v, minlength=n)
-    topo = edge_topology(F)
-    bmask = np.zeros(n, bool)
-    bmask[topo.E[topo.count == 1].ravel()] = True
-    checked = ~bmask & (count >= 4)
-    pl = _face_planarity(V, F)
-    pv = np.zeros(n)
-    np.maximum.at(pv, C.v, pl[C.face])
-    dev = cone_fit(V, F).deviation
-    passed = ~checked | (dev <= tol + planarity_factor * pv)
-    return ConicalCheck(out, checked, passed, dev, float(np.abs(crit).max()) if len(crit) else 0.0)
 
 
 class ConicalOptimization(NamedTuple):
@@ -190,7 +114,7 @@ def optimize_conical(V, F, reference=None, *, closeness_weight: float = 1.0, fai
     warnings = [w for w in res.warnings if not (polish and w.startswith("tolerance not reached"))]
     _, crit = conical_criterion(X, F)
     max_crit = float(np.abs(crit).max()) if len(crit) else 0.0
-    chk = conical_check_planar(X, F, tol)
+    chk = conical_check(X, F, tol)
     max_dev = float(chk.deviation[chk.checked].max()) if chk.checked.any() else 0.0
     E = edge_topology(F).E
     L = float(np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1).mean())

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from components.conical import conical_check, face_offset
-from components.conical_opt import conical_check_planar, conical_optimize, optimize_conical
+from components.conical import conical_check
+from components.conical_opt import conical_optimize, optimize_conical
 from components.mesh import InputError, MeshError, boundary_vertex_mask, quad_grid, read_mesh
 from components.planarize import face_planarity, planarize_mesh
 from tests.components.test_conical import revolution_net, translation_net
@@ -16,19 +17,19 @@ from tests.conftest import shared_file
 def test_published_conical_mesh_passes_as_is():
     V, F = read_mesh(shared_file("meshes/dos/obj_pq__conical1.obj"))
     assert not conical_check(V, F, 1e-4).passed.all()  # the angle criterion alone is perturbed by planarity 4e-5
-    chk = conical_check_planar(V, F, 1e-4)
+    chk = conical_check(V, F, 1e-4)
     assert chk.passed.all() and chk.checked.sum() > 900
     assert chk.max_criterion > 1e-4  # reported beside the verdict
-    assert conical_check_planar(V, F, 0.0).passed.all()  # even with no slack but the planarity's
+    assert conical_check(V, F, 0.0).passed.all()  # even with no slack but the planarity's
 
 
 def test_non_conical_pq_meshes_fail():
     V, F = read_mesh(shared_file("meshes/dos/obj_pq__planarizednormalized_six_quad.obj"))
     assert face_planarity(V, F).max() < 1e-4
-    assert not conical_check_planar(V, F, 1e-4).passed.all()
+    assert not conical_check(V, F, 1e-4).passed.all()
     Vt, Ft = translation_net(8)  # exactly planar quads, not conical
     assert face_planarity(Vt, Ft).max() < 1e-12
-    assert not conical_check_planar(Vt, Ft, 1e-4).passed.all()
+    assert not conical_check(Vt, Ft, 1e-4).passed.all()
 
 
 def test_planarized_hypar_grid_fails(hypar_grid):
@@ -37,13 +38,13 @@ def test_planarized_hypar_grid_fails(hypar_grid):
     res = planarize_mesh(V, Q, (V, Q), tolerance=1e-9)
     X = res.mesh[0]
     assert res.max_planarity < 1e-3
-    chk = conical_check_planar(X, Q, 1e-4)
+    chk = conical_check(X, Q, 1e-4)
     assert not chk.passed.all() and chk.deviation[chk.checked].max() > 0.01
 
 
 def test_revolution_net_is_conical():
     V, F = revolution_net()
-    chk = conical_check_planar(V, F, 1e-6)
+    chk = conical_check(V, F, 1e-6)
     assert chk.passed.all() and chk.checked.any()
 
 
