@@ -166,6 +166,16 @@ def _constraints_arg(constraints, m: int, fr: FaceFrames):
     """``(faces, directions)`` → face indices and complex ``(X, Y)`` targets; one direction fixes one root."""
     if constraints is None:
         return None
+    faces, Z = _constraint_directions(constraints, m, fr)
+    if Z.shape[1] == 2:
+        u, v = Z[:, 0], Z[:, 1]
+        return faces, u * u * v * v, u * u + v * v
+    u = Z[:, 0]
+    return faces, -(u ** 4), np.zeros(len(faces), dtype=complex)
+
+
+def _constraint_directions(constraints, m: int, fr: FaceFrames):
+    """``(faces, directions)`` → face indices ``(c,)`` and unit complex directions ``(c, 1 or 2)``."""
     try:
         faces, dirs = constraints
         faces = np.asarray(faces)
@@ -199,13 +209,7 @@ def _constraints_arg(constraints, m: int, fr: FaceFrames):
             raise InputError("constraints", f"direction for face {int(faces[np.argmax(~tangential)])} is zero or "
                                             "normal to the face")
         zs.append(z / np.abs(z))
-    if two:
-        u, v = zs
-        X, Y = u * u * v * v, u * u + v * v
-    else:
-        u = zs[0]
-        X, Y = -(u ** 4), np.zeros(c, dtype=complex)
-    return faces, X, Y
+    return faces, np.stack(zs, axis=1)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -489,11 +493,11 @@ def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
     if T2 is not None:
         tr, ti = T2.real[:, None], T2.imag[:, None]
         tb = 0.5 * (1.0 - np.maximum(c2a * tr + s2a * ti, c2b * tr + s2b * ti))
-        D = D + tau_weight * tb  # T2 = 0 where a face has no boundary edge: a constant, no effect
+        D = D + tau_weight[:, None] * tb  # T2 = 0 where a face has no boundary edge: a constant, no effect
     return D, swap
 
 
-def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, tau_weight: float = 10.0):
+def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, tau_weight=10.0):
     """Per face, the conjugate pair closest to the line pair ``(u, v)`` (unit complex in the face frame).
 
     The conjugate direction of ``a`` (angle from the principal direction ``p``) is ``b(a) = arg(−k2 sin a +
@@ -511,10 +515,11 @@ def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, 
     if tau is not None:
         T2 = np.where(np.isfinite(tau), (np.where(np.isfinite(tau), tau, 0.0) * pc) ** 2, 0.0)
     smin = np.sin(min_angle) ** 2
+    tau_weight = np.broadcast_to(np.asarray(tau_weight, dtype=np.float64), (m,))
     best = np.empty(m)
     for lo in range(0, m, _CHUNK):
         sl = slice(lo, min(m, lo + _CHUNK))
-        args = (k1[sl], k2[sl], A2[sl], B2[sl], None if T2 is None else T2[sl], smin, tau_weight)
+        args = (k1[sl], k2[sl], A2[sl], B2[sl], None if T2 is None else T2[sl], smin, tau_weight[sl])
         if start is None:
             a = np.broadcast_to(np.arange(_GRID) * (np.pi / _GRID), (sl.stop - sl.start, _GRID))
             step, levels = np.pi / _GRID, 3
@@ -565,7 +570,7 @@ def _conjugacy_weights(cv: FieldCurvature) -> np.ndarray:
 
 def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
                     iterations: int = 20, conjugacy_weight: float = 10.0, closeness: float = 0.01,
-                    min_angle: float = np.radians(35.0), align_boundary: bool = True,
+                    min_angle: float = np.radians(35.0), align_boundary: bool = True, constraints=None,
                     curvature: FieldCurvature | None = None, curvature_radius: int = 2) -> Field:
     """Conjugate direction field near a given field: local-global alternation of Liu et al. 2011.
 
@@ -591,6 +596,9 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
         onto an asymptotic direction on saddles).
     align_boundary : bool
         On faces with a boundary edge prefer the conjugate pair one of whose directions follows the boundary.
+    constraints : (faces, directions), optional
+        As in :func:`smooth_field`: with one direction per face ``(c, 3)`` the face keeps the conjugate pair
+        containing it (when the angle bound allows); with two ``(c, 2, 3)`` the face keeps the given pair.
     curvature : FieldCurvature, optional
         Per-face shape operator (:func:`field_curvature`), computed when omitted.
     curvature_radius : int
@@ -641,6 +649,16 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     p = _principal_complex(cv, fr)
     aniso = _anisotropy(cv)
     tau = _boundary_tangents(V, dg, fr, m) if align_boundary else None
+    tau_w = np.full(m, 10.0)
+    fixed = None
+    if constraints is not None:
+        cf, cdir = _constraint_directions(constraints, m, fr)
+        if cdir.shape[1] == 1:
+            tau = np.full(m, np.nan + 0j) if tau is None else tau
+            tau[cf] = cdir[:, 0]
+            tau_w[cf] = 1000.0
+        else:
+            fixed = (cf, cdir[:, 0], cdir[:, 1])
     u0 = to_complex(U0, fr)
     v0 = to_complex(W0, fr)
     u0, v0 = u0 / np.abs(u0), v0 / np.abs(v0)
@@ -656,16 +674,20 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     u, v = u0, v0
     a = None
     for it in range(iterations):
-        pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a)
+        pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
         pu = np.where(active, pu, u)
         pv = np.where(active, pv, v)
+        if fixed is not None:
+            pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
         Xp, Yp = _poly(pu, pv)
         X = luX.solve(wc * Xp + w0 * X0)
         Y = luY.solve(wc * Yp + w0 * Y0)
         u, v = _roots(X, Y)
-    pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a)
+    pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
     u = np.where(active, pu, u)
     v = np.where(active, pv, v)
+    if fixed is not None:
+        u[fixed[0]], v[fixed[0]] = fixed[1], fixed[2]
     fld = _finish(V, T, u, v, fr, dg, cv, aniso)
     log.debug("conjugate_field: %d faces, %d singularities, mean conjugacy error %.2e", m,
               len(fld.singularities), float(fld.conjugacy_error.mean()))
