@@ -569,8 +569,8 @@ def _conjugacy_weights(cv: FieldCurvature) -> np.ndarray:
 
 
 def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
-                    iterations: int = 20, conjugacy_weight: float = 10.0, closeness: float = 0.01,
-                    min_angle: float = np.radians(35.0), align_boundary: bool = True, constraints=None,
+                    iterations: int = 40, conjugacy_weight: float = 3.0, closeness: float = 0.01,
+                    min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,
                     curvature: FieldCurvature | None = None, curvature_radius: int = 2) -> Field:
     """Conjugate direction field near a given field: local-global alternation of Liu et al. 2011.
 
@@ -585,7 +585,8 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     smoothness : float
         Weight of the PolyVector smoothness energy (> 0). Larger = smoother, fewer singularities, less conjugate.
     iterations : int
-        Number of local-global iterations (1 to 200).
+        Number of local-global iterations (1 to 200). The alternation converges slowly; on ``inspired_mesh.obj``
+        the extracted quads' mean planarity went 2.6e-3 → 2.5e-3 from 20 to 40 iterations.
     conjugacy_weight : float
         Weight of the pull towards the per-face closest conjugate pairs (area-share weighted, × curvature
         importance, as ``alignment`` in :func:`smooth_field`).

@@ -229,7 +229,7 @@ class _Tracer:
         own = None
         lag = 0
         if self_distance > 0:
-            own = _Grid(self_distance, parallel=math.cos(math.radians(25.0)))
+            own = _Grid(self_distance, parallel=math.cos(math.radians(20.0)))
             lag = int(math.ceil(3.0 * self_distance / step)) + 1
         d = self.fv[f][fam] * sign
         start = self.point3(f, z)
@@ -593,7 +593,7 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     tr = _Tracer(V, T, U, W, sing, radius)
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     max_length = 4.0 * diag + 10 * sep
-    grid = _Grid(sep, parallel=math.cos(math.radians(25.0)))
+    grid = _Grid(sep, parallel=math.cos(math.radians(20.0)))
     d_test = ratio * sep
     lines: list[np.ndarray] = []
     queue: list = []
