@@ -134,6 +134,113 @@ STEPS += [
 
 
 # ----------------------------------------------------------------------------------------------
+# steps 3, 4, 6 (smooth field, conjugate field, singularities, streamlines)
+
+
+def _curv(V, T):
+    from components.fields import field_curvature
+
+    return field_curvature(V, T)
+
+
+def smooth_field_ours(V, T):
+    from components.fields import smooth_field
+
+    return smooth_field(V, T, alignment=0.1)
+
+
+def _smooth(V, T):
+    from components.fields import smooth_field
+
+    cv = _curv(V, T)
+    return cv, smooth_field(V, T, alignment=0.1, curvature=cv)
+
+
+def conjugate_field_ours(V, T):
+    """Curvature + smooth field + conjugate field (the pipeline's field stage)."""
+    from components.fields import conjugate_field
+
+    cv, s = _smooth(V, T)
+    return conjugate_field(V, T, s.U, s.W, curvature=cv)
+
+
+def _principal(V, T):
+    cv = _curv(V, T)
+    return cv.d1, cv.d2
+
+
+def singularities_ours(V, T):
+    from components.fields import field_singularities
+
+    return field_singularities(V, T, *_principal(V, T))
+
+
+def singularities_igl(V, T):
+    import igl
+
+    return igl.find_cross_field_singularities(V, T, *_principal(V, T), False)
+
+
+def comb_ours(V, T):
+    from components.fields import comb_field
+
+    return comb_field(V, T, *_principal(V, T))
+
+
+def comb_igl(V, T):
+    import igl
+
+    return igl.comb_cross_field(V, T, *_principal(V, T))
+
+
+def streamlines_ours(V, T):
+    """Conjugate field, then an evenly spaced net of both families at 2.5 mean edges."""
+    from components.streamlines import evenly_spaced_streamlines
+
+    from components.fields import conjugate_field
+
+    cv, s = _smooth(V, T)
+    c = conjugate_field(V, T, s.U, s.W, curvature=cv)
+    return evenly_spaced_streamlines(V, T, c.U, c.W, family=2, separation=2.5 * _mean_edge(V, T))
+
+
+def _polyvector_system(V, T):
+    import scipy.sparse as sp
+
+    from components.fields import _alignment_weights, _anisotropy, _connection_laplacian
+    from components.fields_mesh import dual_graph, face_frames
+
+    fr = face_frames(V, T)
+    dg = dual_graph(V, T, fr)
+    w = 0.1 * 1000.0 * fr.area / fr.area.sum() * _alignment_weights(_anisotropy(_curv(V, T)))
+    return sp.csc_matrix(_connection_laplacian(dg, len(T), 4) + sp.diags(w.astype(complex)))
+
+
+def factor_symmetric_ours(V, T):
+    """The smooth-field system factored as components.fields does (MMD on AᵀA pattern, no pivoting)."""
+    from components.fields import _factor
+
+    return _factor(_polyvector_system(V, T))
+
+
+def factor_colamd(V, T):
+    from scipy.sparse.linalg import splu
+
+    return splu(_polyvector_system(V, T), permc_spec="COLAMD")
+
+
+STEPS += [
+    Step("smooth field (curvature + PolyVector)", smooth_field_ours),
+    Step("conjugate field (curv+smooth+conj, 40 it)", conjugate_field_ours, repeat=1),
+    Step("singularities of principal dirs", singularities_ours, singularities_igl,
+         "igl.find_cross_field_singularities"),
+    Step("comb principal dirs", comb_ours, comb_igl, "igl.comb_cross_field"),
+    Step("PolyVector factor: MMD sym vs COLAMD", factor_symmetric_ours, factor_colamd, "splu COLAMD (pivoting)"),
+    Step("conjugate field + streamline net (2.5e)", streamlines_ours, repeat=1),
+]
+
+
+# ----------------------------------------------------------------------------------------------
 # inputs
 
 
