@@ -34,21 +34,22 @@ from components.mesh import (
     MeshError,
     boundary_loops,
     edge_topology,
+    face_normals,
     face_sizes,
     triangulate,
     validate_mesh,
 )
 from components.planarize_geometry import (
-    _PolylineIndex,
-    triangle_query,
+    LoopIndex,
     corner_angles,
+    corner_turns,
     face_corners,
     face_planarity,
-    loop_segments,
     nonconvex_faces,
     vertex_stars,
     warping_height,
 )
+from components.proximity import TriangleIndex
 from components import planarize_goals as goals
 from components.types import Integers, Mesh, Numbers, Points
 
@@ -68,7 +69,15 @@ __all__ = [
 BOUNDARY_MODES = ("fixed", "slide", "free")
 FAIRNESS_MODES = ("polylines", "laplacian")
 CONICAL_TOLERANCE = 1e-6  # radians, criterion ω1 − ω2 + ω3 − ω4 when the conical goal is on
-_NORMAL_STIFFNESS = 10.0  # with a reference: normal motion costs 1 + 10·closeness_weight times tangential motion
+_NORMAL_STIFFNESS = 20.0  # closeness: distance to the reference's tangent plane costs 10·closeness_weight
+_KAPPA = 30.0  # optimize phase: planarity may rise to κ × tolerance while the displacement is minimized
+_OPT_ITERATIONS = 20  # optimize phase: iteration cap
+_OPT_STEP = 1e-3  # optimize phase ends when the optimality step moves no vertex more than this (mean edges)
+_OPT_DECREASE = 0.01  # optimize phase ends when an iteration lowers the soft objective by less than this fraction
+_TRUST = 1.0  # no vertex moves more than this (mean edges) in one iteration
+_GUARD_ATTEMPTS = 6  # re-solves per iteration that add corner-guard rows
+_BACKTRACKS = 10  # step halvings per solve
+_STALL = 10  # iterations without improvement before giving up
 
 
 class PlanarizeResult(NamedTuple):
@@ -160,13 +169,10 @@ def _pseudo_quads(F, sizes):
     return np.concatenate(parts).astype(np.int64) if parts else np.zeros((0, 4), np.int64)
 
 
-def _vertex_normals(X, F):
-    from components.mesh import face_normals
-
+def _vertex_normals(X, F, corners):
     N = face_normals(X, F, unit=False)
-    C = face_corners(F)
     VN = np.zeros_like(X)
-    np.add.at(VN, C.v, N[C.face])
+    np.add.at(VN, corners.v, N[corners.face])
     L = np.linalg.norm(VN, axis=1, keepdims=True)
     return VN / np.where(L > 0, L, 1.0)
 
@@ -193,28 +199,35 @@ def _stack(blocks, ncols):
     return J, np.concatenate(rr)
 
 
-def _solve_spd(A, b):
-    """Solve the SPD normal equations (SuperLU, symmetric mode on the symmetric minimum-degree ordering)."""
-    A = A.tocsc()
+def _factor_spd(S):
+    """Factor the SPD face-sized system (SuperLU in symmetric mode on the symmetric minimum-degree ordering; the
+    orderings were benchmarked: COLAMD is 2–10× slower on these systems)."""
+    S = S.tocsc()
     try:
-        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options=dict(SymmetricMode=True))
-        return lu.solve(b)
-    except RuntimeError:  # exactly singular: fall back to a damped solve
-        d = A.diagonal()
-        A = A + sp.diags(1e-9 * (np.abs(d).max() + 1.0) * np.ones(len(d)))
-        return spla.spsolve(A.tocsc(), b)
+        return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+    except RuntimeError:  # exactly singular: damp
+        d = S.diagonal()
+        S = S + sp.identity(S.shape[0], format="csc") * (1e-9 * (np.abs(d).max() + 1.0))
+        return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 
-class _Health(NamedTuple):
-    min_angle: float
-    nonconvex: int
-    angles: np.ndarray
+def _block_matrix(blocks, idx, n):
+    """Sparse ``(3n, 3n)`` matrix with the ``3 × 3`` blocks ``blocks[i]`` on the diagonal at vertices ``idx[i]``."""
+    r = (3 * idx[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
+    c = (3 * idx[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)
+    return sp.csr_matrix((blocks.ravel(), (r.ravel(), c.ravel())), shape=(3 * n, 3 * n))
 
 
-def _health(X, F, corners, nonquad_ok):
-    th = corner_angles(X, F)
-    return _Health(float(th.min()) if len(th) else math.pi, int(nonconvex_faces(X, F).sum()), th)
+class _State(NamedTuple):
+    """A candidate state and what the acceptance tests need."""
+
+    X: np.ndarray
+    tangents: np.ndarray  # unit tangents of the boundary segments under the sliding vertices
+    score: float  # max over faces of planarity / tolerance (and conical criterion / its tolerance)
+    turn: np.ndarray  # corner turns (sine of the interior angle, signed)
+    angle: np.ndarray  # unsigned corner angles
+    nonconvex: int  # faces with a corner turning the wrong way (among the guarded faces)
+    healthy: bool
 
 
 def planarize_mesh(
@@ -239,6 +252,7 @@ def planarize_mesh(
     max_iterations: int = 100,
     time_budget: float = 30.0,
     angle_guard: float = 0.5,
+    relax: float = 0.9,
     mesh_name: str = "mesh",
 ) -> PlanarizeResult:
     """Make every face of a polygon mesh planar while keeping it close, fair, anchored and healthy.
@@ -284,6 +298,9 @@ def planarize_mesh(
     angle_guard : float
         Fraction of the input's worst corner angle below which no corner may go (and the same fraction of the
         input's margin to 180° above which no corner may go).
+    relax : float
+        Faces above ``relax × tolerance`` are driven to that value, not to 0 (in ``(0, 1]``; smaller values leave
+        more margin, larger ones move less).
     mesh_name : str
         Name of the mesh input used in error messages.
 
@@ -315,6 +332,9 @@ def planarize_mesh(
     guard = _check_weight("angle_guard", angle_guard)
     if guard >= 1:
         raise InputError("angle_guard", f"must be below 1, got {guard}")
+    relax = _check_weight("relax", relax)
+    if relax > 1:
+        raise InputError("relax", f"must be at most 1, got {relax}")
     try:
         max_it = int(max_iterations)
     except (TypeError, ValueError):
@@ -347,290 +367,422 @@ def planarize_mesh(
     center = V.mean(axis=0)
     scale = float(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1).mean())
     X0 = (V - center) / scale
-    X = X0.copy()
 
-    # reference in normalized units
     if reference is not None:
         XR = (Vr - center) / scale
         TR, _ = triangulate(Fr)
-        from components.mesh import face_normals
-
         NR = face_normals(XR, TR)
-        ref_index = triangle_query(XR, TR)
-        ref_loops = boundary_loops(Fr)
+        ref_index = TriangleIndex(XR, TR, name="reference")
+        ref_loops = boundary_loops(Fr, name="reference")
         ref_bnd_X = XR
     else:
-        XR = TR = NR = None
-        ref_loops = boundary_loops(F)
+        XR = None
+        ref_loops = boundary_loops(F, name=mesh_name)
         ref_bnd_X = X0
-    N0 = _vertex_normals(X0, F)
+    N0 = _vertex_normals(X0, F, corners)
 
     # ------------------------------------------------------------------ variables: fixed / sliding / free
     fixed = np.zeros(n, dtype=bool)
     slide = np.zeros(n, dtype=bool)
-    loops = boundary_loops(F)
+    loops = boundary_loops(F, name=mesh_name)
     bmask = np.zeros(n, dtype=bool)
     for lp in loops:
         bmask[lp] = True
-    faces_per_v = np.bincount(corners.v, minlength=n)
-    if boundary == "fixed":
-        fixed |= bmask
-    elif boundary == "slide":
-        slide |= bmask
-        for lp in loops:
-            p, q = X0[np.roll(lp, 1)], X0[np.roll(lp, -1)]
-            a, b = X0[lp] - p, q - X0[lp]
-            cosang = np.einsum("ij,ij->i", a, b) / np.maximum(
-                np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-            corner = (cosang < math.cos(math.radians(40))) | (faces_per_v[lp] <= 1)
-            fixed[lp[corner]] = True
-        if not ref_loops:
-            warnings.append("boundary: the reference has no boundary to slide on; boundary vertices were fixed")
-            fixed |= bmask
-        slide &= ~fixed
+    pl_in = face_planarity(V, F)
     used = np.zeros(n, dtype=bool)
     used[F.ravel()] = True
-    fixed |= ~used
-    fixed[anchor_idx] = True
+    user_fixed = ~used
+    user_fixed[anchor_idx] = True
     if len(apts):
         d, i = cKDTree(V).query(apts)
-        fixed[i] = True
+        user_fixed[i] = True
         far = d > 0.5 * scale
         if far.any():
             warnings.append(
                 f"anchor_points: {int(far.sum())} point(s) are more than half an edge from any vertex; "
                 "their nearest vertices were anchored")
+    if boundary == "fixed":
+        fixed |= bmask
+    elif boundary == "slide":
+        if not ref_loops:
+            warnings.append("boundary: the reference has no boundary to slide on; boundary vertices were fixed")
+            fixed |= bmask
+        else:
+            slide |= bmask
+            faces_per_v = np.bincount(corners.v, minlength=n)
+            # corners of the boundary stay fixed: vertices where the boundary turns by more than 40°, both at the
+            # next vertices and over three vertices each way (a staircase boundary along a smooth curve, as remeshing
+            # leaves, turns sharply at every step but not at the larger scale)
+            corner = np.zeros(n, dtype=bool)
+            for lp in loops:
+                sharp = np.ones(len(lp), dtype=bool)
+                for k in (1, min(3, max(1, len(lp) // 4))):
+                    a = X0[lp] - X0[np.roll(lp, k)]
+                    b = X0[np.roll(lp, -k)] - X0[lp]
+                    cosang = np.einsum("ij,ij->i", a, b) / np.maximum(
+                        np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+                    sharp &= cosang < math.cos(math.radians(40))
+                corner[lp[sharp]] = True
+            fixed |= corner
+            # a face with every corner on the boundary (fixed or sliding), as the protruding quads of a jagged
+            # remeshed boundary are, can rarely be made planar by sliding: its vertices that belong to no other
+            # face (or, failing those, its boundary corners) are set free to leave the boundary
+            locked = (fixed | slide | user_fixed)[F].all(axis=1) & (pl_in > tol)
+            if locked.any():
+                lone = np.zeros(n, dtype=bool)
+                lone[F[locked].ravel()] = True
+                release = lone & (faces_per_v <= 1) & ~user_fixed
+                still = locked & ~release[F].any(axis=1)
+                lone[:] = False
+                lone[F[still].ravel()] = True
+                release |= lone & corner & ~user_fixed
+                fixed &= ~release
+                slide &= ~release
+                if release.any():
+                    warnings.append(
+                        f"boundary: {int(release.sum())} boundary vertice(s) of faces lying wholly on the boundary "
+                        "were set free (no sliding on the boundary could make those faces planar)")
+    fixed |= user_fixed
     slide &= ~fixed
-    locked = fixed[F].all(axis=1) & (face_planarity(V, F) > (tol if tol > 0 else 0.0))
+    locked = fixed[F].all(axis=1) & (pl_in > (tol if tol > 0 else 0.0))
     if locked.any():
         warnings.append(f"{int(locked.sum())} non-planar face(s) have all their corners fixed (boundary, corners or "
                         f"anchors), e.g. face {int(np.argmax(locked))}: the tolerance cannot be reached there")
     slide_idx = np.nonzero(slide)[0]
     free_idx = np.nonzero(~fixed & ~slide)[0]
-    bnd_index = None
-    if len(slide_idx):
-        SA, SB = loop_segments(ref_bnd_X, ref_loops)
-        bnd_index = _PolylineIndex(SA, SB)
+    bnd_index = LoopIndex(ref_bnd_X, ref_loops) if len(slide_idx) else None
 
     def project_slide(Xc):
         if bnd_index is None:
-            return Xc, None
-        q, seg = bnd_index.query(Xc[slide_idx])
+            return Xc, np.zeros((0, 3))
+        q, tang = bnd_index.query(Xc[slide_idx])
         Xc = Xc.copy()
         Xc[slide_idx] = q
-        t = bnd_index.B[seg] - bnd_index.A[seg]
-        t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-        return Xc, t
-
-    X, tangents = project_slide(X)
-    # basis P: dx = P y (free vertices 3 dof, sliding vertices 1 dof along the boundary, fixed 0)
-    nf = len(free_idx)
-
-    def basis(tang, Xc):
-        """``dx = P z`` with ``|z|²`` the step metric: free vertices move freely but, with closeness on, moving
-        along the surface normal costs ``1 + α`` times more (``P = M^{-1/2}``, ``M = I + α n nᵀ``)."""
-        if alpha > 0 and nf:
-            Nn = _vertex_normals(Xc, F)[free_idx]
-            c = 1.0 - 1.0 / math.sqrt(1.0 + alpha)
-            blk = np.eye(3)[None] - c * Nn[:, :, None] * Nn[:, None, :]
-            rows = [np.repeat(3 * free_idx[:, None] + np.arange(3), 3, axis=1).ravel()]
-            cols = [np.tile(3 * np.arange(nf)[:, None] + np.arange(3), (1, 3)).ravel()]
-            vals = [blk.ravel()]
-        else:
-            rows = [(3 * free_idx[:, None] + np.arange(3)).ravel()]
-            cols = [np.arange(3 * nf)]
-            vals = [np.ones(3 * nf)]
-        if len(slide_idx):
-            rows.append((3 * slide_idx[:, None] + np.arange(3)).ravel())
-            cols.append(np.repeat(3 * nf + np.arange(len(slide_idx)), 3))
-            vals.append(tang.ravel())
-        return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(3 * n, 3 * nf + len(slide_idx)))
+        return Xc, tang
 
     # ------------------------------------------------------------------ static goal data
     Q4 = _pseudo_quads(F, sizes)
+    is_quad_row = np.zeros(len(Q4), dtype=bool)
+    is_quad_row[: int((sizes == 4).sum())] = True
     stars = vertex_stars(F, n)
     lap = _laplacian_triplets(E, n) if fairness_mode == "laplacian" else None
-    close_idx = np.nonzero(~fixed)[0]
     conical_on = w_con > 0 and len(stars.center) > 0
     if w_con > 0 and not conical_on:
         warnings.append("conical_weight: the mesh has no interior valence-4 vertex; the conical goal was ignored")
+    alpha = (_NORMAL_STIFFNESS if reference is not None else 1.0) * w_close
+    w_disp = 1.0 + w_start
+    soft_blocks_on = w_edge > 0 or w_area > 0
+    fair_op, fair_major = None, None
+    if w_fair > 0:
+        fair_op, _ = _stack([goals.fairness_block(X0, stars, fairness_mode, w_fair, lap)], 3 * n)
+        fa = abs(fair_op)
+        # |J|ᵀ|J|1 bounds JᵀJ from above (Gershgorin): the preconditioned soft step never overshoots
+        fair_major = (fa.T @ (fa @ np.ones(3 * n))).reshape(-1, 3)
+    close_idx = np.nonzero(~fixed)[0]
 
-    h_in = _health(X, F, corners, True)
+    # ------------------------------------------------------------------ panel health
     quad_like = sizes >= 4
-    lo = guard * h_in.min_angle
-    hi = math.pi - guard * (math.pi - float(h_in.angles.max()))
-    margin = math.radians(10.0)
-    n_nonconvex_in = h_in.nonconvex
+    turn_in, angle_in = corner_turns(X0, corners, face_normals(X0, F))
+    ncv_in_face = np.zeros(len(F), dtype=bool)
+    np.logical_or.at(ncv_in_face, corners.face, turn_in <= 0)
+    ncv_in_face |= np.linalg.norm(face_normals(X0, F, unit=False), axis=1) == 0
+    guarded = quad_like[corners.face] & ~ncv_in_face[corners.face]  # corners the guard watches
+    n_nonconvex_in = int(ncv_in_face[quad_like].sum())
+    if guarded.any():
+        worst_turn_angle = float(np.arcsin(np.clip(turn_in[guarded], 0.0, 1.0)).min())
+        angle_floor = guard * float(angle_in[guarded].min())
+    else:
+        worst_turn_angle, angle_floor = math.pi / 2, 0.0
+    lo = guard * worst_turn_angle
+    margin = min(math.radians(5.0), 0.5 * lo)
+    sigma_min = math.sin(lo)
+    sigma_act = math.sin(lo + margin)
+    sigma_tgt = math.sin(lo + 0.5 * margin)
+
+    # ------------------------------------------------------------------ tolerances and measures
+    def tolerance_of(Xc):
+        """Per-row tolerance of the scale-free residuals (absolute mode: warping height over the mean diagonal)."""
+        if not use_abs:
+            return np.full(len(Q4), tol)
+        a, b, c, d = (Xc[Q4[:, i]] for i in range(4))
+        md = 0.5 * (np.linalg.norm(c - a, axis=1) + np.linalg.norm(d - b, axis=1)) * scale
+        return atol / np.maximum(md, 1e-300)
+
+    def evaluate(Xc, tang):
+        r = goals.planarity_residual(Xc, Q4)
+        sc = float(np.max(np.abs(r) / tolerance_of(Xc))) if len(r) else 0.0
+        if conical_on:
+            sc = max(sc, float(np.abs(goals.conical_residual(Xc, corners, stars)).max()) / CONICAL_TOLERANCE)
+        turn, ang = corner_turns(Xc, corners, face_normals(Xc, F))
+        bad = turn <= 0
+        ncv = np.zeros(len(F), dtype=bool)
+        ncv[corners.face[bad & guarded]] = True
+        nconv = int(ncv.sum()) + n_nonconvex_in
+        healthy = True
+        if guarded.any():
+            healthy = (float(turn[guarded].min()) >= sigma_min and float(ang[guarded].min()) >= angle_floor
+                       and not ncv.any())
+        return _State(Xc, tang, sc, turn, ang, nconv, healthy)
+
+    def met(st):
+        """Tolerance reached, on the reported measures (the n-gon measure differs from the pseudo-quad rows)."""
+        if st.score > 1.0:
+            return False
+        if (sizes > 4).any():
+            if use_abs:
+                return bool(warping_height(st.X * scale, F).max() <= atol)
+            return bool(face_planarity(st.X, F).max() <= tol)
+        return True
+
+    last_query = [None, None]  # the latest closest-point query (positions, result): trial → accepted → next step
+
+    def ref_query(Xc):
+        if last_query[0] is not Xc:
+            last_query[:] = [Xc, ref_index.query(Xc)]
+        return last_query[1]
 
     def measures(Xc):
         pl = face_planarity(Xc, F)
         if XR is not None:
-            _, d, _ = ref_index.query(Xc)
+            d = ref_query(Xc).distances
         else:
             d = np.linalg.norm(Xc - X0, axis=1)
         return pl, d * scale
 
-    def met(pl, Xc):
-        if use_abs:
-            ok = warping_height(Xc * scale, F).max() <= atol
-        else:
-            ok = pl.max() <= tol
-        if conical_on:
-            ok = ok and float(np.abs(goals.conical_residual(Xc, corners, stars)).max()) <= CONICAL_TOLERANCE
-        return bool(ok)
+    # ------------------------------------------------------------------ one step
+    def soft_terms(Xc, value_only=False):
+        """Value, gradient ``g (n, 3)`` and a block-diagonal majorizer ``H (n, 3, 3)`` of the soft objective:
+        ``½ (1 + start_weight) |X − X0|²`` (minimal displacement) ``+ ½ α (n·(X − C))²`` (closeness: distance to the
+        tangent plane of the reference at the closest point) ``+ ½ Σ w |r|²`` (fairness, even edges / areas)."""
+        g = w_disp * (Xc - X0)
+        f = 0.5 * float(np.einsum("ij,ij->", g, Xc - X0))
+        if alpha > 0 and len(close_idx):
+            if XR is not None:
+                res = ref_query(Xc)
+                C, Nc = res.points[close_idx], NR[res.faces[close_idx]]
+            else:
+                C, Nc = X0[close_idx], N0[close_idx]
+            dist = np.einsum("ij,ij->i", Xc[close_idx] - C, Nc)
+            f += 0.5 * alpha * float(np.square(dist).sum())
+        if w_fair > 0:  # linear in X: the operator and its majorizer are built once
+            rf = fair_op @ Xc.ravel()
+            f += 0.5 * float(np.square(rf).sum())
+        if soft_blocks_on:
+            blocks = []
+            if w_edge > 0:
+                blocks.append(goals.edge_length_block(Xc, E, t_edge / scale, w_edge))
+            if w_area > 0:
+                blocks.append(goals.area_block(Xc, F, corners, t_area / scale**2, w_area))
+            J, r = _stack(blocks, 3 * n)
+            f += 0.5 * float(np.square(r).sum())
+        if value_only:
+            return f
+        H = np.zeros((n, 3, 3))
+        H[:, [0, 1, 2], [0, 1, 2]] = w_disp
+        if alpha > 0 and len(close_idx):
+            g[close_idx] += alpha * dist[:, None] * Nc
+            H[close_idx] += alpha * Nc[:, :, None] * Nc[:, None, :]
+        if w_fair > 0:
+            g += (fair_op.T @ rf).reshape(-1, 3)
+            H[:, [0, 1, 2], [0, 1, 2]] += fair_major
+        if soft_blocks_on:
+            g += (J.T @ r).reshape(-1, 3)
+            Ja = abs(J)
+            H[:, [0, 1, 2], [0, 1, 2]] += (Ja.T @ (Ja @ np.ones(3 * n))).reshape(-1, 3)
+        return g, H, f
 
-    def score(pl, Xc):
-        s = float(pl.max())
-        if conical_on:
-            s = max(s, float(np.abs(goals.conical_residual(Xc, corners, stars)).max()))
-        return s
+    def inverse_metric(H, tang):
+        """``G = P (Pᵀ H P)⁻¹ Pᵀ``: free vertices move in 3D, sliding ones along their boundary tangent, fixed not."""
+        blocks = [np.linalg.inv(H[free_idx])] if len(free_idx) else []
+        idx = [free_idx]
+        if len(slide_idx):
+            q = np.einsum("ij,ijk,ik->i", tang, H[slide_idx], tang)
+            blocks.append(tang[:, :, None] * tang[:, None, :] / q[:, None, None])
+            idx.append(slide_idx)
+        if not blocks:
+            return sp.csr_matrix((3 * n, 3 * n))
+        return _block_matrix(np.concatenate(blocks), np.concatenate(idx), n)
 
-    pl, cl = measures(X)
+    def hard_rows(Xc, guard_sel, Nf):
+        """Hard rows ``J Δ = −(r − s)``: planarity (relaxed to ``0.9 ×`` the tolerance where above it), conical
+        criterion, corner-turn guard."""
+        blk = goals.planarity_block(Xc, Q4, 1.0)
+        tau = relax * tolerance_of(Xc)
+        target = np.where(is_quad_row, np.clip(blk.r, -tau, tau), 0.0)
+        blocks = [blk._replace(r=blk.r - target)]
+        if conical_on:
+            blocks.append(goals.conical_block(Xc, corners, stars, 1.0))
+        n_guard_from = sum(len(b.r) for b in blocks)
+        if len(guard_sel):
+            # a guarded corner below the bound is lifted to it; one above may not turn further (the row is an
+            # inequality in effect: rows whose multiplier would hold the turn down are released by the caller)
+            turn_now = corner_turns(Xc, corners, Nf)[0][guard_sel]
+            blocks.append(goals.turn_block(Xc, corners, guard_sel, Nf, np.maximum(turn_now, sigma_tgt)))
+        J, r = _stack(blocks, 3 * n)
+        return J, r, n_guard_from
+
+    # ------------------------------------------------------------------ iterate
+    Xs, tangents = project_slide(X0)
+    cur = evaluate(Xs, tangents)
+    start_score = cur.score
+    pl, cl = measures(cur.X)
     hist = dict(maxp=[float(pl.max())], meanp=[float(pl.mean())], maxc=[float(cl.max())],
                 meanc=[float(cl.mean())], t=[time.perf_counter() - t0])
-    best = dict(X=X.copy(), score=score(pl, X), it=0)
-    start_score = best["score"]
+    best = cur
     stop_reason = ""
     it = 0
-    converged = met(pl, X)
-    barrier_set = np.zeros(len(corners.v), dtype=bool)
+    converged = met(cur)
     if converged:
         stop_reason = "tolerance reached (input already planar)"
-    ndof = 3 * nf + len(slide_idx)
-    alpha = _NORMAL_STIFFNESS * w_close if XR is not None else 0.0
+    ndof = 3 * len(free_idx) + len(slide_idx)
     if ndof == 0 and not converged:
         stop_reason = "no free vertex to move"
+    # phases: "restore" (minimum-norm Gauss-Newton steps in the metric of the soft goals until the tolerance is
+    # met), "optimize" (those steps plus t × the soft goals' step projected on the constraints, i.e. toward the
+    # minimum displacement / soft objective on the planar meshes, while planarity stays within κ × tolerance),
+    # "polish" (restore steps again until the tolerance is met)
+    phase = "restore"
+    t_opt = 1.0
+    opt_its = 0
     since_best = 0
-    soft_scale = 1.0
-    w_con_rows = math.sqrt(w_con) if conical_on else 0.0
+    sticky = np.zeros(len(corners.v), dtype=bool)
+    feasible_best = None  # (state, soft objective) of the best state that met the tolerance
 
-    def soft_step(Xc, Pm):
-        """One Jacobi-preconditioned Gauss-Newton step on the soft goals (reduced coordinates)."""
-        blocks = []
-        if w_close > 0 and len(close_idx):
-            if XR is not None:
-                C, _, fidx = ref_index.query(Xc[close_idx])
-                blocks.append(goals.closeness_block(Xc, close_idx, C, NR[fidx], w_close))
-            else:
-                blocks.append(goals.closeness_block(Xc, close_idx, X0[close_idx], N0[close_idx], w_close))
-        if w_start > 0:
-            blocks.append(goals.start_block(Xc, X0, close_idx, w_start))
-        if w_fair > 0:
-            blocks.append(goals.fairness_block(Xc, stars, fairness_mode, w_fair, lap))
-        if w_edge > 0:
-            blocks.append(goals.edge_length_block(Xc, E, t_edge / scale, w_edge))
-        if w_area > 0:
-            blocks.append(goals.area_block(Xc, F, corners, t_area / scale**2, w_area))
-        if not blocks:
-            return np.zeros(Pm.shape[1])
-        J, r = _stack(blocks, 3 * n)
-        Jr = (J @ Pm).tocsr()
-        g = Jr.T @ r
-        Ja = abs(Jr)
-        rowabs = Ja.T @ (Ja @ np.ones(Jr.shape[1]))
-        return -g / (rowabs + 1.0)
+    def f_of(st):
+        return soft_terms(st.X, value_only=True)
 
-    def hard_rows(Xc, sel):
-        blocks = [goals.planarity_block(Xc, Q4, 1.0)]
-        if conical_on:
-            blocks.append(goals.conical_block(Xc, corners, stars, w_con_rows ** 2))
-        if len(sel):
-            blocks.append(goals.angle_barrier_block(Xc, corners, sel, lo + 0.5 * margin, hi - 0.5 * margin, 1.0))
-        return _stack(blocks, 3 * n)
-
-    while not converged and not stop_reason:
+    while not stop_reason:
+        if converged:
+            if phase == "restore" and _OPT_ITERATIONS > 0 and time.perf_counter() - t0 < 0.5 * budget:
+                phase = "optimize"
+            elif phase != "optimize":
+                stop_reason = "tolerance reached"
+                break
         if it >= max_it:
             stop_reason = f"iteration cap ({max_it}) reached"
             break
         if time.perf_counter() - t0 > budget:
             stop_reason = f"time budget ({budget:g} s) reached"
             break
-        it += 1
-        Pm = basis(tangents if tangents is not None else np.zeros((0, 3)), X)
-        ys = soft_scale * soft_step(X, Pm)
-        th = corner_angles(X, F)
-        sel_mask = ((th < lo + margin) | (th > hi - margin) | barrier_set) & quad_like[corners.face]
-        healthy = False
-        first = None
-        eps_rel = 1e-8
-        for attempt in range(4):
-            J, r = hard_rows(X, np.nonzero(sel_mask)[0])
-            Jr = (J @ Pm).tocsr()
-            S = (Jr @ Jr.T).tocsc()
-            eps = eps_rel * float(S.diagonal().mean()) + 1e-14
-            lam = _solve_spd(S + sp.identity(S.shape[0], format="csc") * eps, -(r + Jr @ ys))
-            y = ys + Jr.T @ lam
-            if not np.all(np.isfinite(y)):
+        X = cur.X
+        g, H, f_cur = soft_terms(X)
+        G = inverse_metric(H, cur.tangents)
+        gf = g.ravel()
+        Nf = face_normals(X, F)
+        guard_sel = guarded & ((cur.turn < sigma_act) | sticky)
+        optimize = phase == "optimize"
+        t = t_opt if optimize else 0.0
+        accepted = None
+        for attempt in range(_GUARD_ATTEMPTS):
+            sel = np.nonzero(guard_sel)[0]
+            J, r, g0 = hard_rows(X, sel, Nf)
+            JG = (J @ G).tocsr()
+            S = (JG @ J.T).tocsc()
+            eps = 1e-10 * float(S.diagonal().mean()) + 1e-14
+            lu = _factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
+            lam_f = lu.solve(-r)
+            df = (JG.T @ lam_f).reshape(-1, 3)
+            if optimize:
+                lam_o = lu.solve(JG @ gf)
+                do = (JG.T @ lam_o - G @ gf).reshape(-1, 3)
+            else:
+                lam_o, do = np.zeros_like(lam_f), np.zeros_like(df)
+            if not (np.all(np.isfinite(df)) and np.all(np.isfinite(do))):
                 break
-            step = (Pm @ y).reshape(-1, 3)
-            if first is None:
-                first = step
-            Xn, tn = project_slide(X + step)
-            hn = _health(Xn, F, corners, True)
-            healthy = hn.min_angle >= lo and hn.nonconvex <= n_nonconvex_in and float(hn.angles.max()) <= hi
-            if healthy:
-                break
-            log.debug("   attempt %d unhealthy: min angle %.1f nonconvex %d", attempt,
-                      math.degrees(hn.min_angle), hn.nonconvex)
-            # the corners that would leave the healthy range become hard rows; solve again
-            bad = ((hn.angles < lo + margin) | (hn.angles > hi - margin)) & quad_like[corners.face]
-            if hn.nonconvex > n_nonconvex_in:
-                ncv = nonconvex_faces(Xn, F)
-                bad |= ncv[corners.face] & quad_like[corners.face]
-            if not (bad & ~sel_mask).any():
-                break
-            sel_mask |= bad
-            barrier_set |= bad
-            eps_rel *= 100.0  # guard rows may conflict with planarity: solve them in the least-squares sense
-        tstep = 1.0
-        if not healthy and first is not None:
-            step = first
-            for _ in range(6):
-                tstep *= 0.5
-                Xn, tn = project_slide(X + tstep * step)
-                hn = _health(Xn, F, corners, True)
-                healthy = hn.min_angle >= lo and hn.nonconvex <= n_nonconvex_in and float(hn.angles.max()) <= hi
-                if healthy:
+            if len(sel) and attempt == 0:
+                # the guard rows are inequalities: a row whose multiplier pushes its turn down is not binding
+                loose = lam_f[g0:] + t * lam_o[g0:] < 0
+                if loose.any():
+                    guard_sel[sel[loose]] = False
+                    sticky[sel[loose]] = False
+                    continue
+            move = float(np.linalg.norm(df, axis=1).max())
+            beta = min(1.0, _TRUST / move) if move > 0 else 1.0
+            need_resolve = False
+            for _ in range(_BACKTRACKS):
+                Xt, tt = project_slide(X + beta * df + t * do)
+                trial = evaluate(Xt, tt)
+                if not trial.healthy:
+                    log.debug("   unhealthy beta %.3g t %.3g: min turn %.3g (>= %.3g) min angle %.1f (>= %.1f) "
+                              "ncv %d", beta, t, trial.turn[guarded].min(), sigma_min,
+                              math.degrees(trial.angle[guarded].min()), math.degrees(angle_floor), trial.nonconvex)
+                    new = guarded & ((trial.turn < sigma_act) | (trial.angle < angle_floor)) & ~guard_sel
+                    if new.any() and attempt < _GUARD_ATTEMPTS - 1:
+                        guard_sel |= new
+                        sticky |= new
+                        need_resolve = True
+                        break
+                elif optimize:
+                    f_new = soft_terms(trial.X, value_only=True)
+                    log.debug("   optimize trial t %.3g: score %.3g f %.6g -> %.6g", t, trial.score, f_cur, f_new)
+                    if trial.score <= _KAPPA and f_new < f_cur:
+                        accepted = trial
+                        break
+                elif trial.score < cur.score:
+                    accepted = trial
                     break
-        if not healthy:
-            stop_reason = "no step keeps the panels healthy (corner angle / convexity guard)"
+                if optimize:
+                    t *= 0.5
+                    if t < 1.0 / 64:
+                        break
+                else:
+                    beta *= 0.5
+            if accepted is not None or not need_resolve:
+                break
+        if accepted is None:
+            if optimize:  # no soft progress left within the tolerance band: polish
+                phase = "polish"
+                since_best = 0
+                converged = met(cur)
+                continue
+            stop_reason = ("no step keeps the panels healthy (corner angle / convexity guard)"
+                           if best.score > 1.0 else "no further progress")
             break
-        X, tangents = Xn, tn
-        pl, cl = measures(X)
+        it += 1
+        cur = accepted
+        pl, cl = measures(cur.X)
         hist["maxp"].append(float(pl.max()))
         hist["meanp"].append(float(pl.mean()))
         hist["maxc"].append(float(cl.max()))
         hist["meanc"].append(float(cl.mean()))
         hist["t"].append(time.perf_counter() - t0)
-        sc = score(pl, X)
-        if sc > 0.5 * best["score"]:
-            soft_scale *= 0.5
-        if sc < best["score"]:
-            best = dict(X=X.copy(), score=sc, it=it)
+        step_opt = t * float(np.abs(do).max()) if optimize else 0.0
+        log.debug("planarize it %d (%s): score %.3g max %.3e t %.3g beta %.3g opt step %.2e guard rows %d",
+                  it, phase, cur.score, pl.max(), t, beta, step_opt, int(guard_sel.sum()))
+        if cur.score < best.score:
+            best = cur
             since_best = 0
         else:
             since_best += 1
-        converged = met(pl, X)
-        log.debug("planarize it %d: max %.3e mean %.3e soft %.2g t %.3g attempts %d min angle %.1f",
-                  it, pl.max(), pl.mean(), soft_scale, tstep, attempt, math.degrees(hn.min_angle))
-        if converged:
-            stop_reason = "tolerance reached"
-            best = dict(X=X.copy(), score=sc, it=it)
-        elif since_best >= 10:
-            stop_reason = "stalled (no improvement in 10 iterations)"
+        converged = met(cur)
+        if converged and (feasible_best is None or f_of(cur) < feasible_best[1]):
+            feasible_best = (cur, f_of(cur))
+        if optimize:
+            opt_its += 1
+            t_opt = min(1.0, 2.0 * t)
+            if (opt_its >= _OPT_ITERATIONS or step_opt < _OPT_STEP or f_cur - f_new < _OPT_DECREASE * f_cur
+                    or time.perf_counter() - t0 > 0.5 * budget):
+                phase = "polish"
+                since_best = 0
+        elif since_best >= _STALL and not converged:
+            stop_reason = f"stalled (no improvement in {_STALL} iterations)"
 
-    Xb = best["X"]
+    if not converged and feasible_best is not None:  # an earlier state met the tolerance: return the best of them
+        cur, converged = feasible_best[0], True
+        stop_reason = f"tolerance reached (best state that met it; then {stop_reason})"
+    final = cur if converged else best
+    Xb = final.X
     Vout = Xb * scale + center
     Vout[fixed] = V[fixed]  # exactly unmoved
     pl = face_planarity(Vout, F)
     if XR is not None:
-        _, d, _ = triangle_query(Vr, triangulate(Fr)[0]).query(Vout)
+        d = TriangleIndex(Vr, triangulate(Fr)[0], name="reference").query(Vout).distances
     else:
         d = np.linalg.norm(Vout - V, axis=1)
-    hb = _health(Vout, F, corners, True)
+    ang = corner_angles(Vout, F)
+    n_ncv = int(nonconvex_faces(Vout, F)[quad_like].sum())
+    min_angle = float(ang.min()) if len(ang) else math.pi
     con = float(np.abs(goals.conical_residual(Xb, corners, stars)).max()) if len(stars.center) else 0.0
-    converged = met(pl, Xb)
     if not converged:
         target = f"warping height {atol:g}" if use_abs else f"planarity {tol:g}"
         what = f"max planarity {pl.max():.3g}"
@@ -640,13 +792,14 @@ def planarize_mesh(
             what += f", conical criterion {con:.3g} rad"
         warnings.append(f"tolerance not reached ({stop_reason}): best state has {what} (target {target}); "
                         f"it was returned")
-    if best["score"] >= start_score and not converged and it > 0:
-        warnings.append("no iteration improved on the input; the input mesh was returned")
-    if hb.min_angle < h_in.min_angle - 1e-9 and math.degrees(hb.min_angle) < 0.75 * math.degrees(h_in.min_angle):
-        warnings.append(f"worst corner angle degraded from {math.degrees(h_in.min_angle):.1f}° to "
-                        f"{math.degrees(hb.min_angle):.1f}°")
-    if hb.nonconvex > n_nonconvex_in:
-        warnings.append(f"non-convex faces increased from {n_nonconvex_in} to {hb.nonconvex}")
+        if best.score >= start_score and it > 0:
+            warnings.append("no iteration improved on the input; the input mesh was returned")
+    min_angle_in = float(angle_in.min()) if len(angle_in) else math.pi
+    if min_angle < min_angle_in - 1e-9 and min_angle < 0.75 * min_angle_in:
+        warnings.append(f"worst corner angle degraded from {math.degrees(min_angle_in):.1f}° to "
+                        f"{math.degrees(min_angle):.1f}°")
+    if n_ncv > n_nonconvex_in:
+        warnings.append(f"non-convex faces increased from {n_nonconvex_in} to {n_ncv}")
     return PlanarizeResult(
         mesh=(Vout, F),
         planarity=pl,
@@ -657,8 +810,8 @@ def planarize_mesh(
         iterations=it,
         converged=converged,
         stop_reason=stop_reason,
-        worst_corner_angle=math.degrees(hb.min_angle),
-        nonconvex_faces=hb.nonconvex,
+        worst_corner_angle=math.degrees(min_angle),
+        nonconvex_faces=n_ncv,
         max_warping_height=float(warping_height(Vout, F).max()),
         max_conical=con,
         history_max_planarity=np.asarray(hist["maxp"]),
@@ -668,6 +821,7 @@ def planarize_mesh(
         history_time=np.asarray(hist["t"]),
         warnings=warnings,
     )
+
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1,9 +1,9 @@
 """Geometry helpers of the planarization solver: planarity measures, panel shape, star topology, closest points.
 
 The public functions here (:func:`face_planarity`, :func:`warping_height`, :func:`corner_angles`,
-:func:`nonconvex_faces`) are array-level measures that the solver reports. The closest-point helpers are private
-fallbacks used until ``components.proximity`` provides ``TriangleIndex`` / ``closest_points_on_polyline``; the solver
-switches to those automatically when they exist.
+:func:`nonconvex_faces`, :func:`corner_turns`) are array-level measures that the solver reports and guards; the
+planarity measures are the shared ones of :mod:`components.metrics`, closest points come from
+:mod:`components.proximity`.
 """
 from __future__ import annotations
 
@@ -11,9 +11,10 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from components.mesh import face_sizes
+from components import metrics
+from components.mesh import face_normals, face_sizes
+from components.proximity import PolylineIndex
 
 log = logging.getLogger(__name__)
 
@@ -58,12 +59,6 @@ def corner_angles(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
 
 
-def _newell(V, F):
-    from components.mesh import face_normals
-
-    return face_normals(V, F, unit=True)
-
-
 def nonconvex_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """``(m,) bool``: faces with a reflex (or folded) corner.
 
@@ -73,7 +68,7 @@ def nonconvex_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     C = face_corners(F)
-    N = _newell(V, F)
+    N = face_normals(V, F, unit=True)
     turn = np.cross(V[C.v] - V[C.prev], V[C.next] - V[C.v])
     bad = np.einsum("ij,ij->i", turn, N[C.face]) <= 0.0
     out = np.zeros(len(F), dtype=bool)
@@ -86,91 +81,47 @@ def nonconvex_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 # planarity
 
 
-def _lsq_plane_distances(V, F, sizes, idx):
-    """Max distance of the corners of faces ``idx`` to their least-squares planes, and their mean edge length."""
-    dist = np.zeros(len(idx))
-    mel = np.zeros(len(idx))
-    for s in np.unique(sizes[idx]):
-        sel = np.nonzero(sizes[idx] == s)[0]
-        P = V[F[idx[sel], :s]]  # (q, s, 3)
-        c = P.mean(axis=1, keepdims=True)
-        X = P - c
-        # smallest right singular vector of every corner set
-        _, _, vt = np.linalg.svd(X)
-        n = vt[:, -1, :]
-        dist[sel] = np.abs(np.einsum("qsj,qj->qs", X, n)).max(axis=1)
-        mel[sel] = np.linalg.norm(np.roll(P, -1, axis=1) - P, axis=2).mean(axis=1)
-    return dist, mel
-
-
 def warping_height(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Warping height of every face in model units.
+    """Warping height of every face in model units (:func:`components.metrics.warping_height`).
 
-    For quads the distance between the two diagonal lines; for n-gons (n ≥ 5) the largest distance of a corner
-    to the face's least-squares plane; 0 for triangles.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-    F : (m, k) int64
-
-    Returns
-    -------
-    (m,) float64
+    Quads: the distance between the two diagonal lines; n-gons (n ≥ 5): the largest distance of a corner to the
+    face's least-squares plane; triangles: 0. Returns ``(m,) float64``.
     """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    sizes = face_sizes(F)
-    out = np.zeros(len(F))
-    q = np.nonzero(sizes == 4)[0]
-    if len(q):
-        a, b, c, d = (V[F[q, i]] for i in range(4))
-        d1, d2 = c - a, d - b
-        cr = np.cross(d1, d2)
-        nc = np.linalg.norm(cr, axis=1)
-        vol = np.abs(np.einsum("ij,ij->i", b - a, cr))
-        out[q] = np.divide(vol, nc, out=np.zeros_like(vol), where=nc > 0)
-    g = np.nonzero(sizes > 4)[0]
-    if len(g):
-        out[g] = _lsq_plane_distances(V, F, sizes, g)[0]
-    return out
+    return metrics.warping_height(V, F)
 
 
 def face_planarity(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Scale-free planarity of every face.
+    """Scale-free planarity of every face (:func:`components.metrics.quad_planarity`).
 
     Quads: distance between the two diagonal lines divided by the mean diagonal length (libigl's
-    ``quad_planarity``, unsigned). N-gons: largest distance of a corner to the least-squares plane divided by
-    the mean edge length. Triangles: 0.
+    ``quad_planarity``, unsigned); n-gons: largest distance of a corner to the least-squares plane divided by the
+    mean edge length; triangles: 0. Returns ``(m,) float64``.
+    """
+    return metrics.quad_planarity(V, F)
 
-    Parameters
-    ----------
-    V : (n, 3) float64
-    F : (m, k) int64
+
+def corner_turns(X: np.ndarray, C: Corners, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed turn and unsigned angle at every corner.
+
+    The turn is ``((v − prev) × (next − v)) · n / (|v − prev| |next − v|)`` with ``n`` the unit normal of the
+    corner's face (``N (m, 3)``): the sine of the interior angle, negative at a reflex corner. A planar face is
+    convex with all angles in ``[θ, π − θ]`` exactly when every turn is at least ``sin θ``.
 
     Returns
     -------
-    (m,) float64
+    turn : (c,) float64
+    angle : (c,) float64
+        Unsigned angle in ``[0, π]`` between the two edges at the corner (:func:`corner_angles`).
     """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    sizes = face_sizes(F)
-    out = np.zeros(len(F))
-    q = np.nonzero(sizes == 4)[0]
-    if len(q):
-        a, b, c, d = (V[F[q, i]] for i in range(4))
-        d1, d2 = c - a, d - b
-        cr = np.cross(d1, d2)
-        nc = np.linalg.norm(cr, axis=1)
-        vol = np.abs(np.einsum("ij,ij->i", b - a, cr))
-        md = 0.5 * (np.linalg.norm(d1, axis=1) + np.linalg.norm(d2, axis=1))
-        den = nc * md
-        out[q] = np.divide(vol, den, out=np.zeros_like(vol), where=den > 0)
-    g = np.nonzero(sizes > 4)[0]
-    if len(g):
-        dist, mel = _lsq_plane_distances(V, F, sizes, g)
-        out[g] = np.divide(dist, mel, out=np.zeros_like(dist), where=mel > 0)
-    return out
+    a = X[C.v] - X[C.prev]
+    b = X[C.next] - X[C.v]
+    cr = np.cross(a, b)
+    la = np.linalg.norm(a, axis=1)
+    lb = np.linalg.norm(b, axis=1)
+    den = np.maximum(la * lb, 1e-300)
+    turn = np.einsum("ij,ij->i", cr, N[C.face]) / den
+    angle = np.arctan2(np.linalg.norm(cr, axis=1), -np.einsum("ij,ij->i", a, b))
+    return turn, angle
 
 
 # ----------------------------------------------------------------------------------------------
@@ -236,178 +187,35 @@ def vertex_stars(F: np.ndarray, n: int) -> Stars:
 
 
 # ----------------------------------------------------------------------------------------------
-# closest points (private fallbacks for components.proximity)
+# closest points on boundary loops
 
 
-def _closest_on_segments(P, A, B):
-    d = B - A
-    dd = np.einsum("ij,ij->i", d, d)
-    t = np.divide(np.einsum("ij,ij->i", P - A, d), dd, out=np.zeros(len(P)), where=dd > 0)
-    t = np.clip(t, 0.0, 1.0)
-    return A + t[:, None] * d, t
+class LoopIndex:
+    """Closest points on a set of closed vertex loops (the boundary polylines to slide on), with unit tangents.
 
+    One :class:`components.proximity.PolylineIndex` per loop; a query keeps the nearest loop.
+    """
 
-def _closest_on_triangles(P, A, B, C):
-    """Closest point of each ``P[i]`` on triangle ``(A[i], B[i], C[i])``; returns points and barycentrics."""
-    ab, ac = B - A, C - A
-    n = np.cross(ab, ac)
-    nn = np.einsum("ij,ij->i", n, n)
-    ap = P - A
-    # barycentrics of the projection
-    d00 = np.einsum("ij,ij->i", ab, ab)
-    d01 = np.einsum("ij,ij->i", ab, ac)
-    d11 = np.einsum("ij,ij->i", ac, ac)
-    d20 = np.einsum("ij,ij->i", ap, ab)
-    d21 = np.einsum("ij,ij->i", ap, ac)
-    den = d00 * d11 - d01 * d01
-    safe = np.where(den > 0, den, 1.0)
-    v = (d11 * d20 - d01 * d21) / safe
-    w = (d00 * d21 - d01 * d20) / safe
-    u = 1.0 - v - w
-    inside = (u >= 0) & (v >= 0) & (w >= 0) & (nn > 0)
-    Q = A + v[:, None] * ab + w[:, None] * ac
-    bary = np.stack([u, v, w], axis=1)
-    out = ~inside
-    if out.any():
-        Po = P[out]
-        best = None
-        bb = None
-        for (X, Y, ix, iy) in ((A, B, 0, 1), (B, C, 1, 2), (C, A, 2, 0)):
-            q, t = _closest_on_segments(Po, X[out], Y[out])
-            dist = np.einsum("ij,ij->i", Po - q, Po - q)
-            b = np.zeros((len(Po), 3))
-            b[np.arange(len(Po)), ix] = 1.0 - t
-            b[np.arange(len(Po)), iy] += t
-            if best is None:
-                best, bq, bb = dist, q, b
-            else:
-                better = dist < best
-                best = np.where(better, dist, best)
-                bq = np.where(better[:, None], q, bq)
-                bb = np.where(better[:, None], b, bb)
-        Q[out] = bq
-        bary[out] = bb
-    return Q, bary
+    def __init__(self, X: np.ndarray, loops: list):
+        self._loops = [PolylineIndex(X[lp], closed=True, name="boundary") for lp in loops if len(lp) >= 2]
 
+    def __bool__(self):
+        return bool(self._loops)
 
-class _TriangleIndexFallback:
-    """Exact closest points on a triangle mesh: k-d tree of centroids with a guaranteed search radius."""
-
-    def __init__(self, V, T):
-        self.V = np.asarray(V, dtype=np.float64)
-        self.T = np.asarray(T, dtype=np.int64)
-        P = self.V[self.T]
-        self.cent = P.mean(axis=1)
-        self.rad = float(np.linalg.norm(P - self.cent[:, None, :], axis=2).max()) if len(P) else 0.0
-        self.tree = cKDTree(self.cent)
-
-    def _eval(self, P, tri):
-        A, B, C = (self.V[self.T[tri, i]] for i in range(3))
-        Q, bary = _closest_on_triangles(P, A, B, C)
-        return Q, bary, np.linalg.norm(P - Q, axis=1)
-
-    def query(self, P):
+    def query(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Closest points ``(p, 3)`` on the loops and the unit tangents ``(p, 3)`` of the segments holding them."""
         P = np.asarray(P, dtype=np.float64)
-        k = min(8, len(self.T))
-        dk, ik = self.tree.query(P, k=k)
-        dk = dk.reshape(len(P), k)
-        ik = ik.reshape(len(P), k)
-        bestd = np.full(len(P), np.inf)
-        bestq = np.zeros_like(P)
-        bestb = np.zeros((len(P), 3))
-        bestf = np.zeros(len(P), dtype=np.int64)
-        for j in range(k):
-            q, b, d = self._eval(P, ik[:, j])
-            better = d < bestd
-            bestd[better], bestq[better], bestb[better], bestf[better] = d[better], q[better], b[better], ik[better, j]
-        # a closer triangle must have its centroid within bestd + rad; check the points where that is unsure
-        unsure = np.nonzero(dk[:, -1] < bestd + self.rad)[0] if k < len(self.T) else np.zeros(0, np.int64)
-        if len(unsure):
-            lists = self.tree.query_ball_point(P[unsure], bestd[unsure] + self.rad)
-            cnt = np.array([len(x) for x in lists])
-            if cnt.sum():
-                pi = np.repeat(unsure, cnt)
-                ti = np.concatenate([np.asarray(x, dtype=np.int64) for x in lists if len(x)])
-                q, b, d = self._eval(P[pi], ti)
-                order = np.lexsort((d, pi))
-                pi, ti, q, b, d = pi[order], ti[order], q[order], b[order], d[order]
-                firsts = np.ones(len(pi), dtype=bool)
-                firsts[1:] = pi[1:] != pi[:-1]
-                pi, ti, q, b, d = pi[firsts], ti[firsts], q[firsts], b[firsts], d[firsts]
-                better = d < bestd[pi]
-                sel = pi[better]
-                bestd[sel], bestq[sel], bestb[sel], bestf[sel] = d[better], q[better], b[better], ti[better]
-        return bestq, bestd, bestf, bestb
-
-
-class _TriangleQuery:
-    """``query(P) -> (points, distances, faces)`` over a triangle mesh, built once per solve."""
-
-    def __init__(self, V, T):
-        try:
-            from components.proximity import TriangleIndex
-        except ImportError:  # pragma: no cover - the sibling module is present in this tree
-            TriangleIndex = None
-        self._shared = TriangleIndex(V, T, name="reference") if TriangleIndex is not None else None
-        self._fallback = None if self._shared is not None else _TriangleIndexFallback(V, T)
-
-    def query(self, P):
-        if self._shared is not None:
-            res = self._shared.query(P)
-            return np.asarray(res.points), np.asarray(res.distances), np.asarray(res.faces)
-        q, d, f, _ = self._fallback.query(P)
-        return q, d, f
-
-
-def triangle_query(V, T) -> _TriangleQuery:
-    """An index answering closest points on a triangle mesh: ``components.proximity.TriangleIndex`` when it exists,
-    else a private k-d tree fallback."""
-    return _TriangleQuery(V, T)
-
-
-class _PolylineIndex:
-    """Closest points on a set of polylines (segments ``A[i] → B[i]``)."""
-
-    def __init__(self, A, B):
-        self.A = np.asarray(A, dtype=np.float64)
-        self.B = np.asarray(B, dtype=np.float64)
-        mid = 0.5 * (self.A + self.B)
-        self.rad = float(0.5 * np.linalg.norm(self.B - self.A, axis=1).max()) if len(self.A) else 0.0
-        self.tree = cKDTree(mid)
-
-    def query(self, P):
-        P = np.asarray(P, dtype=np.float64)
+        best_d = np.full(len(P), np.inf)
+        Q = np.zeros_like(P)
+        T = np.zeros_like(P)
         if len(P) == 0:
-            return P.copy(), np.zeros(0, dtype=np.int64)
-        k = min(4, len(self.A))
-        dk, ik = self.tree.query(P, k=k)
-        dk = dk.reshape(len(P), k)
-        ik = ik.reshape(len(P), k)
-        bestd = np.full(len(P), np.inf)
-        bestq = np.zeros_like(P)
-        bests = np.zeros(len(P), dtype=np.int64)
-        for j in range(k):
-            q, _ = _closest_on_segments(P, self.A[ik[:, j]], self.B[ik[:, j]])
-            d = np.linalg.norm(P - q, axis=1)
-            better = d < bestd
-            bestd[better], bestq[better], bests[better] = d[better], q[better], ik[better, j]
-        if k < len(self.A):
-            for i in np.nonzero(dk[:, -1] < bestd + self.rad)[0]:
-                segs = np.asarray(self.tree.query_ball_point(P[i], bestd[i] + self.rad), dtype=np.int64)
-                if len(segs) == 0:
-                    continue
-                q, _ = _closest_on_segments(np.repeat(P[i:i + 1], len(segs), 0), self.A[segs], self.B[segs])
-                d = np.linalg.norm(q - P[i], axis=1)
-                j = int(np.argmin(d))
-                if d[j] < bestd[i]:
-                    bestd[i], bestq[i], bests[i] = d[j], q[j], segs[j]
-        return bestq, bests
-
-
-def loop_segments(V: np.ndarray, loops: list) -> tuple[np.ndarray, np.ndarray]:
-    """Segments ``(A, B)`` of closed vertex loops."""
-    if not loops:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    A = np.concatenate([V[lp] for lp in loops])
-    B = np.concatenate([V[np.roll(lp, -1)] for lp in loops])
-    return A, B
+            return Q, T
+        for idx in self._loops:
+            res = idx.query(P, name="boundary vertices")
+            better = res.distances < best_d
+            if better.any():
+                best_d[better] = res.distances[better]
+                Q[better] = res.points[better]
+                t = idx.B[res.segments[better]] - idx.A[res.segments[better]]
+                T[better] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+        return Q, T

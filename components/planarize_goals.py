@@ -32,13 +32,14 @@ def _triplets(rows_per, verts, grads):
     return rows, cols, grads.reshape(-1)
 
 
-def planarity_denominator(X: np.ndarray, Q4: np.ndarray) -> np.ndarray:
-    """``|(c − a) × (d − b)| · mean diagonal`` of every (pseudo-)quad: the scale of its planarity residual."""
+def planarity_residual(X: np.ndarray, Q4: np.ndarray) -> np.ndarray:
+    """Signed scale-free diagonal distance of every (pseudo-)quad: the residual of :func:`planarity_block`."""
     a, b, c, d = (X[Q4[:, i]] for i in range(4))
     d1, d2 = c - a, d - b
+    cr = np.cross(d1, d2)
     md = 0.5 * (np.linalg.norm(d1, axis=1) + np.linalg.norm(d2, axis=1))
-    den = np.linalg.norm(np.cross(d1, d2), axis=1) * md
-    return np.where(den > 1e-300, den, 1e-300)
+    den = np.linalg.norm(cr, axis=1) * md
+    return np.einsum("ij,ij->i", b - a, cr) / np.where(den > 1e-300, den, 1e-300)
 
 
 def planarity_block(X: np.ndarray, Q4: np.ndarray, weight: float) -> Block:
@@ -187,19 +188,27 @@ def conical_block(X: np.ndarray, corners: Corners, stars: Stars, weight: float) 
     return Block(r, rows, cols, vals, weight)
 
 
-def angle_barrier_block(X: np.ndarray, corners: Corners, sel: np.ndarray, lo: float, hi: float,
-                        weight: float) -> Block:
-    """One-sided corner-angle guard: ``min(θ − lo, 0)`` or ``max(θ − hi, 0)`` for the corners ``sel``.
+def turn_block(X: np.ndarray, corners: Corners, sel: np.ndarray, N: np.ndarray, target) -> Block:
+    """Corner-turn guard rows ``turn − target`` for the corners ``sel`` (see
+    :func:`components.planarize_geometry.corner_turns`), the face normals ``N`` held fixed.
 
-    Corners near a bound get a row even when inside (residual 0): the linearized row then forbids the step from
-    crossing the bound, which is what keeps quads from collapsing.
+    ``target`` is a number or one value per selected corner. Met as equalities they hold a corner that would
+    otherwise fall below the bound at it: no quad collapses (angle → 0 or π) and none turns non-convex (a negative
+    turn).
     """
-    th, gv, gu, gw = _angle_and_grads(X, corners.v[sel], corners.prev[sel], corners.next[sel])
-    mid = 0.5 * (lo + hi)
-    r = np.where(th < mid, np.minimum(th - lo, 0.0), np.maximum(th - hi, 0.0))
-    verts = np.stack([corners.v[sel], corners.prev[sel], corners.next[sel]], axis=1)
-    rows, cols, vals = _triplets(3, verts, np.stack([gv, gu, gw], axis=1))
-    return Block(r, rows, cols, vals, weight)
+    v, p, w = corners.v[sel], corners.prev[sel], corners.next[sel]
+    a = X[v] - X[p]
+    b = X[w] - X[v]
+    n = N[corners.face[sel]]
+    la2 = np.maximum(np.einsum("ij,ij->i", a, a), 1e-300)
+    lb2 = np.maximum(np.einsum("ij,ij->i", b, b), 1e-300)
+    den = np.sqrt(la2 * lb2)
+    s = np.einsum("ij,ij->i", np.cross(a, b), n) / den
+    ga = np.cross(b, n) / den[:, None] - (s / la2)[:, None] * a
+    gb = np.cross(n, a) / den[:, None] - (s / lb2)[:, None] * b
+    verts = np.stack([p, v, w], axis=1)
+    rows, cols, vals = _triplets(3, verts, np.stack([-ga, ga - gb, gb], axis=1))
+    return Block(s - target, rows, cols, vals, 1.0)
 
 
 def conical_residual(X: np.ndarray, corners: Corners, stars: Stars) -> np.ndarray:
