@@ -126,25 +126,24 @@ class Report(NamedTuple):
 # the shipped definitions
 
 PLANARITY = "metrics/planarity"
-TRANSLATION = ("surfaces/translation", "surfaces/translation_surface")
-SCALE_TRANSLATION = ("surfaces/scale_translation", "surfaces/scale_translation_surface")
-CONJUGATE_FIELD = ("fields/conjugate_field", "fields/conjugate*", "*/conjugate*")
-PLANARIZE = ("planarize/planarize", "planarize/planarize_mesh", "planarize/mesh")
-CURVATURE = ("fields/principal_curvature", "curvature/principal_curvature", "*/principal_curvature")
-CONFORMAL = ("parametrize/conformal_map", "fields/conformal_map", "*/conformal_map")
-CONICAL = ("conical/conical_mesh", "planarize/conical", "conical/*", "*/conical_mesh")
-CONICAL_METRIC = ("metrics/conical_criterion",)
-SUBDIVISION = ("subdivision/catmull_clark", "subdivide/catmull_clark", "*/catmull_clark")
-PULL = ("subdivision/pull_to_surface", "*/pull_to_surface")
+TRANSLATION = "surfaces/translation"
+SCALE_TRANSLATION = "surfaces/scale_translation"
 ANALYSIS = ("metrics/analysis",)
 EVERY_PER_LANE = 4  # steps expanded from ``every`` wrap onto a new lane after this many
+
+
+def _measured(step_id: str, output: str, lane: int) -> Step:
+    """A planarity component measuring ``output`` of ``step_id``."""
+    return Step(f"{step_id}_{output}_planarity", PLANARITY, feeds={"mesh": (step_id, output)}, lane=lane,
+                label=f"planarity of {output}")
+
 
 SPECS: tuple[Spec, ...] = (
     Spec(
         "metrics_analysis.ghx",
         "Mesh quality analysis",
         "One mesh parameter feeding every metrics component of the server; panels show the summaries, the "
-        "analysis component's coloured mesh (when the server has one) previews the per-face values.",
+        "analysis component's coloured mesh previews the per-face values.",
         (
             Step("planarity", PLANARITY, show="all", label="planarity (per face and summary)"),
             Step("analysis", ANALYSIS, optional=True, coloured=True, lane=1, label="coloured analysis"),
@@ -167,58 +166,64 @@ SPECS: tuple[Spec, ...] = (
     Spec(
         "conjugate_field.ghx",
         "Conjugate direction field → quad mesh → planarization",
-        "A conjugate direction field on the reference mesh, the quad mesh extracted along it, planarized, with "
-        "planarity before and after.",
+        "The conjugate direction field of the design surface mesh (top, as short lines), the quad mesh extracted "
+        "along it and its planarized version (bottom), with planarity before and after.",
         (
-            Step("field", CONJUGATE_FIELD, preview="grey"),
-            Step("planarize", PLANARIZE, after="field", preview="violet"),
-            Step("planarity", PLANARITY, after="planarize"),
+            Step("field", "fields/conjugate_field", lane=0),
+            Step("pq", "fields/pq_from_conjugate_field", lane=1, preview="violet"),
+            _measured("pq", "candidate", 2),
+            _measured("pq", "planarized", 2),
         ),
     ),
     Spec(
         "curvature_network_conical.ghx",
-        "Principal curvature network, conformal map and conical mesh",
-        "Principal curvature directions of the reference mesh (top), its conformal map (middle) and the conical "
-        "planar-quad mesh following the curvature network (bottom) with its conical criterion and planarity.",
+        "Principal curvature network, conformal map, conical mesh and offset",
+        "Principal curvature lines of the design surface mesh (top) and its conformal map (second row); the quad "
+        "mesh rebuilt from the curvature network, optimized into a conical mesh (third row), its conical analysis "
+        "and its constant-distance face offset with the node axes (bottom).",
         (
-            Step("curvature", CURVATURE, lane=0),
-            Step("conformal", CONFORMAL, lane=1),
-            Step("conical", CONICAL, lane=2, preview="green"),
-            Step("conical_criterion", CONICAL_METRIC, after="conical", lane=2),
-            Step("planarity", PLANARITY, after="conical", lane=2),
+            Step("network", "network/curvature_network", lane=0),
+            Step("conformal", "parametrize/conformal_map", lane=1),
+            Step("pq", "network/pq_from_curvature_network", lane=2, preview="green"),
+            Step("conical", "conical/analysis", feeds={"mesh": ("pq", "optimized")}, lane=3),
+            Step("offset", "conical/offset", feeds={"mesh": ("pq", "optimized")}, lane=3, preview="teal"),
         ),
     ),
     Spec(
         "subdivision.ghx",
-        "Subdivision and planarization",
-        "Catmull-Clark subdivision of a coarse quad mesh pulled back onto the reference surface mesh, then "
-        "planarization of the fine mesh, with planarity before and after.",
+        "Singularities, coarse net, subdivision and planarization",
+        "Curvature regions and suggested singularities of the design surface (top), an automatic coarse quad net "
+        "(second row), then Catmull-Clark subdivision pulled onto the surface and planarized (third row), with "
+        "planarity before and after; the bottom row shows the same steps one by one for a coarse net of your own.",
         (
-            Step("subdivide", SUBDIVISION, preview="grey"),
-            Step("pull", PULL, after="subdivide"),
-            Step("subdivided_planarity", PLANARITY, after="pull"),
-            Step("planarize", PLANARIZE, after="pull", lane=1, preview="red"),
-            Step("planarized_planarity", PLANARITY, after="planarize", lane=1),
+            Step("singularities", "subdivision/singularity_analysis", lane=0),
+            Step("coarse", "subdivision/coarse_mesh", lane=1, preview="orange"),
+            Step("pq", "subdivision/pq_from_subdivision", feeds={"coarse": ("coarse", "coarse")}, lane=2,
+                 preview="red"),
+            _measured("pq", "candidate", 3),
+            _measured("pq", "planarized", 3),
+            Step("subdivide", "subdivision/catmull_clark", lane=4),
+            Step("pull", "subdivision/pull_to_surface", after="subdivide", lane=4),
+            Step("planarize", "planarize/on_surface", after="pull", lane=4, preview="violet"),
         ),
     ),
     Spec(
         "comparison.ghx",
         "All strategies side by side",
-        "Every strategy of the server on the same inputs, one lane each, every result measured by the same "
-        "planarity component.",
+        "Every strategy of the server on the same design surface, one lane each (translation and "
+        "scale-translation surfaces from two curves, conjugate field, curvature network with conical "
+        "optimization, subdivision), every result measured by the same planarity component.",
         (
             Step("translation", TRANSLATION, lane=0, preview="orange"),
             Step("translation_planarity", PLANARITY, after="translation", lane=0),
             Step("scale_translation", SCALE_TRANSLATION, lane=1, preview="teal"),
             Step("scale_translation_planarity", PLANARITY, after="scale_translation", lane=1),
-            Step("field", CONJUGATE_FIELD, lane=2),
-            Step("field_planarize", PLANARIZE, after="field", lane=2, preview="violet"),
-            Step("field_planarity", PLANARITY, after="field_planarize", lane=2),
-            Step("conical", CONICAL, lane=3, preview="green"),
-            Step("conical_planarity", PLANARITY, after="conical", lane=3),
-            Step("subdivide", SUBDIVISION, lane=4),
-            Step("subdivide_planarize", PLANARIZE, after="subdivide", lane=4, preview="red"),
-            Step("subdivide_planarity", PLANARITY, after="subdivide_planarize", lane=4),
+            Step("conjugate", "fields/pq_from_conjugate_field", lane=2, preview="violet"),
+            _measured("conjugate", "planarized", 2),
+            Step("network", "network/pq_from_curvature_network", lane=3, preview="green"),
+            _measured("network", "optimized", 3),
+            Step("subdivision", "subdivision/pq_from_subdivision", lane=4, preview="red"),
+            _measured("subdivision", "planarized", 4),
         ),
     ),
 )

@@ -6,9 +6,9 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import (coarse, conical, conical_opt, curvature, curvature_network, curvature_pipeline, metrics,
-                        parametrize_conformal, planarize, pull, quad_rebuild, remesh, samples, singularities, subdivide,
-                        subdivision_pipeline, surfaces)
+from components import (coarse, conical, conical_opt, curvature, curvature_network, curvature_pipeline, extract,
+                        fields, metrics, parametrize, parametrize_conformal, pipelines, planarize, pull, quad_rebuild,
+                        remesh, samples, singularities, streamlines, subdivide, subdivision_pipeline, surfaces)
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}
@@ -44,6 +44,12 @@ COMPONENTS = [
     # fields
     declare(remesh.remesh, "fields/remesh", nicknames=M),
     declare(curvature.principal_curvature, "fields/principal_curvature", nicknames=M),
+    declare(fields.smooth_direction_field, "fields/smooth_field", nicknames=M),
+    declare(fields.conjugate_direction_field, "fields/conjugate_field", nicknames=M),
+    declare(streamlines.streamlines, "fields/streamlines", nicknames=M),
+    declare(parametrize.parametrize, "fields/parametrize", nicknames=M),
+    declare(extract.extract_quads, "fields/extract_quads", nicknames=M),
+    declare(pipelines.pq_from_conjugate_field, "fields/pq_from_conjugate_field", nicknames=M),
     # curvature-network strategy: conformal map, conical meshes, offsets
     declare(curvature_network.curvature_network, "network/curvature_network", nicknames=M),
     declare(parametrize_conformal.conformal_map, "parametrize/conformal_map", nicknames=M),
