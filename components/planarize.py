@@ -464,6 +464,7 @@ def planarize_mesh(
     Q4 = _pseudo_quads(F, sizes)
     is_quad_row = np.zeros(len(Q4), dtype=bool)
     is_quad_row[: int((sizes == 4).sum())] = True
+    ngons = np.nonzero(sizes > 4)[0]
     stars = vertex_stars(F, n)
     lap = _laplacian_triplets(E, n) if fairness_mode == "laplacian" else None
     conical_on = w_con > 0 and len(stars.center) > 0
@@ -488,16 +489,21 @@ def planarize_mesh(
     ncv_in_face |= np.linalg.norm(face_normals(X0, F, unit=False), axis=1) == 0
     guarded = quad_like[corners.face] & ~ncv_in_face[corners.face]  # corners the guard watches
     n_nonconvex_in = int(ncv_in_face[quad_like].sum())
-    if guarded.any():
-        worst_turn_angle = float(np.arcsin(np.clip(turn_in[guarded], 0.0, 1.0)).min())
-        angle_floor = guard * float(angle_in[guarded].min())
+    # bounds from the quads' worst corner (n-gons have natural corners near 180°): a corner may not fall below half
+    # of it, nor below half of its own input value (the worst quad corner and n-gon corners keep their shape)
+    ref_corners = guarded & (sizes[corners.face] == 4)
+    if not ref_corners.any():
+        ref_corners = guarded
+    if ref_corners.any():
+        lo = guard * float(np.arcsin(np.clip(turn_in[ref_corners], 0.0, 1.0)).min())
+        floor_all = guard * float(angle_in[ref_corners].min())
     else:
-        worst_turn_angle, angle_floor = math.pi / 2, 0.0
-    lo = guard * worst_turn_angle
+        lo, floor_all = guard * math.pi / 2, 0.0
     margin = min(math.radians(5.0), 0.5 * lo)
-    sigma_min = math.sin(lo)
-    sigma_act = math.sin(lo + margin)
-    sigma_tgt = math.sin(lo + 0.5 * margin)
+    sigma_min = np.minimum(math.sin(lo), guard * np.clip(turn_in, 0.0, 1.0))  # per corner
+    sigma_act = sigma_min + (math.sin(lo + margin) - math.sin(lo))
+    sigma_tgt = sigma_min + (math.sin(lo + 0.5 * margin) - math.sin(lo))
+    angle_floor = np.minimum(floor_all, guard * angle_in)
 
     # ------------------------------------------------------------------ tolerances and measures
     def tolerance_of(Xc):
@@ -510,7 +516,12 @@ def planarize_mesh(
 
     def evaluate(Xc, tang):
         r = goals.planarity_residual(Xc, Q4)
-        sc = float(np.max(np.abs(r) / tolerance_of(Xc))) if len(r) else 0.0
+        sc = float(np.max(np.abs(r[is_quad_row]) / tolerance_of(Xc)[is_quad_row])) if is_quad_row.any() else 0.0
+        if len(ngons):  # the reported n-gon measure (least-squares plane), not the pseudo-quad rows
+            if use_abs:
+                sc = max(sc, float(warping_height(Xc * scale, F[ngons]).max()) / atol)
+            else:
+                sc = max(sc, float(face_planarity(Xc, F[ngons]).max()) / tol)
         if conical_on:
             sc = max(sc, float(np.abs(goals.conical_residual(Xc, corners, stars)).max()) / CONICAL_TOLERANCE)
         turn, ang = corner_turns(Xc, corners, face_normals(Xc, F))
@@ -520,19 +531,13 @@ def planarize_mesh(
         nconv = int(ncv.sum()) + n_nonconvex_in
         healthy = True
         if guarded.any():
-            healthy = (float(turn[guarded].min()) >= sigma_min and float(ang[guarded].min()) >= angle_floor
-                       and not ncv.any())
+            healthy = bool(np.all(turn[guarded] >= sigma_min[guarded]) and np.all(ang[guarded] >= angle_floor[guarded])
+                           and not ncv.any())
         return _State(Xc, tang, sc, turn, ang, nconv, healthy)
 
     def met(st):
-        """Tolerance reached, on the reported measures (the n-gon measure differs from the pseudo-quad rows)."""
-        if st.score > 1.0:
-            return False
-        if (sizes > 4).any():
-            if use_abs:
-                return bool(warping_height(st.X * scale, F).max() <= atol)
-            return bool(face_planarity(st.X, F).max() <= tol)
-        return True
+        """Tolerance reached (the score holds the reported n-gon measure, and the conical criterion when on)."""
+        return st.score <= 1.0
 
     last_query = [None, None]  # the latest closest-point query (positions, result): trial → accepted → next step
 
@@ -617,7 +622,7 @@ def planarize_mesh(
             # a guarded corner below the bound is lifted to it; one above may not turn further (the row is an
             # inequality in effect: rows whose multiplier would hold the turn down are released by the caller)
             turn_now = corner_turns(Xc, corners, Nf)[0][guard_sel]
-            blocks.append(goals.turn_block(Xc, corners, guard_sel, Nf, np.maximum(turn_now, sigma_tgt)))
+            blocks.append(goals.turn_block(Xc, corners, guard_sel, Nf, np.maximum(turn_now, sigma_tgt[guard_sel])))
         J, r = _stack(blocks, 3 * n)
         return J, r, n_guard_from
 
@@ -704,8 +709,8 @@ def planarize_mesh(
                 trial = evaluate(Xt, tt)
                 if not trial.healthy:
                     log.debug("   unhealthy beta %.3g t %.3g: min turn %.3g (>= %.3g) min angle %.1f (>= %.1f) "
-                              "ncv %d", beta, t, trial.turn[guarded].min(), sigma_min,
-                              math.degrees(trial.angle[guarded].min()), math.degrees(angle_floor), trial.nonconvex)
+                              "ncv %d", beta, t, trial.turn[guarded].min(), math.sin(lo),
+                              math.degrees(trial.angle[guarded].min()), math.degrees(floor_all), trial.nonconvex)
                     new = guarded & ((trial.turn < sigma_act) | (trial.angle < angle_floor)) & ~guard_sel
                     if new.any() and attempt < _GUARD_ATTEMPTS - 1:
                         guard_sel |= new
