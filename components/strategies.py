@@ -16,9 +16,9 @@ strategy               steps
 ``conjugate_field``    conjugate direction field → quad extraction → planarization
                        (``components.pipelines.pq_from_conjugate_field``).
 ``curvature_network``  curvature-line network → conformal map → quad rebuild → conical optimization
-                       (``pq_from_curvature_network``).
-``subdivision``        coarse quad net on a square parametrization → Catmull-Clark → pull onto the surface →
-                       planarization (:func:`subdivision_candidate`, :func:`components.planarize.planarize_mesh`).
+                       (``components.curvature_pipeline.pq_from_curvature_network``).
+``subdivision``        automatic coarse quad net → Catmull-Clark → pull onto the surface → planarization
+                       (``components.subdivision_pipeline.subdivision_pq``).
 =====================  ==========================================================================================
 
 References
@@ -32,8 +32,6 @@ direction fields for remeshing", 2011 (conjugate fields).
 """
 from __future__ import annotations
 
-import importlib
-import inspect
 import logging
 import time
 from typing import Callable, NamedTuple
@@ -64,7 +62,6 @@ __all__ = [
     "run_strategy",
     "run_strategies",
     "translation_candidate",
-    "subdivision_candidate",
     "default_panel_size",
 ]
 
@@ -363,281 +360,26 @@ def _run_translation(V, T, panel_size, time_budget=30.0):
 # strategy 4: coarse net -> Catmull-Clark -> pull -> planarize
 
 
-def _locate(UV: np.ndarray, T: np.ndarray, P: np.ndarray):
-    """Triangle and barycentric coordinates of every point of ``P (p, 2)`` in the planar triangulation ``UV, T``.
+def _subdivision_faces(V, T, panel_size: float, levels: int = 2) -> int:
+    """Coarse face count so that after ``levels`` Catmull-Clark steps boundary panels are about ``panel_size``."""
+    from components.mesh import boundary_loops
 
-    Points outside every triangle (round-off on the border) take the triangle where the smallest barycentric
-    coordinate is largest, with coordinates clipped and renormalized.
-    """
-    from scipy.spatial import cKDTree
-
-    A, B, C = UV[T[:, 0]], UV[T[:, 1]], UV[T[:, 2]]
-    cen = (A + B + C) / 3
-    tree = cKDTree(cen)
-    k = min(len(T), 32)
-    _, cand = tree.query(P, k=k)
-    cand = np.atleast_2d(cand)
-    a, b, c = A[cand], B[cand], C[cand]
-    v0, v1, v2 = b - a, c - a, P[:, None, :] - a
-    d = v0[..., 0] * v1[..., 1] - v0[..., 1] * v1[..., 0]
-    d = np.where(np.abs(d) > 0, d, np.finfo(float).tiny)
-    l1 = (v2[..., 0] * v1[..., 1] - v2[..., 1] * v1[..., 0]) / d
-    l2 = (v0[..., 0] * v2[..., 1] - v0[..., 1] * v2[..., 0]) / d
-    bary = np.stack([1 - l1 - l2, l1, l2], axis=-1)
-    score = bary.min(axis=-1)
-    j = np.argmax(score, axis=1)
-    tri = cand[np.arange(len(P)), j]
-    w = np.clip(bary[np.arange(len(P)), j], 0.0, None)
-    w /= w.sum(axis=1, keepdims=True)
-    far = score[np.arange(len(P)), j] < -1e-6
-    if far.any():  # not found among the nearest candidates: brute force (rare, tiny inputs)
-        for p in np.nonzero(far)[0]:
-            a, b, c = A, B, C
-            v0, v1, v2 = b - a, c - a, P[p] - a
-            d = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
-            d = np.where(np.abs(d) > 0, d, np.finfo(float).tiny)
-            l1 = (v2[:, 0] * v1[:, 1] - v2[:, 1] * v1[:, 0]) / d
-            l2 = (v0[:, 0] * v2[:, 1] - v0[:, 1] * v2[:, 0]) / d
-            bb = np.stack([1 - l1 - l2, l1, l2], axis=-1)
-            t = int(np.argmax(bb.min(axis=1)))
-            tri[p] = t
-            w[p] = np.clip(bb[t], 0.0, None) / np.clip(bb[t], 0.0, None).sum()
-    return tri, w
-
-
-def _disk_net(n: int, k: int, s: float = 0.55):
-    """Coarse quad "O-grid" of the unit disk: an ``n × n`` square block ``[-s, s]²`` and ``k`` rings of quads
-    around it out to the circle (``4n`` boundary nodes at equal angles).
-
-    Every boundary node has valence 3 (no corner panels with near-straight angles); the four corners of the
-    inner block are interior vertices of valence 3. Faces are counter-clockwise.
-    """
-    t = np.linspace(-s, s, n + 1)
-    X, Y = np.meshgrid(t, t, indexing="xy")
-    P = [np.column_stack([X.ravel(), Y.ravel()])]
-    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)  # idx[j, i]
-    Q = [np.stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()], 1)]
-    # the block's boundary, counter-clockwise from the corner (-s, -s)
-    ring = np.r_[idx[0, :-1], idx[:-1, -1], idx[-1, :0:-1], idx[:0:-1, 0]]
-    inner = P[0][ring]
-    ang = np.radians(225.0) + 2 * np.pi * np.arange(4 * n) / (4 * n)
-    outer = np.column_stack([np.cos(ang), np.sin(ang)])
-    count = len(P[0])
-    prev = ring
-    for layer in range(1, k + 1):
-        lam = layer / k
-        P.append((1 - lam) * inner + lam * outer)
-        cur = count + np.arange(4 * n)
-        count += 4 * n
-        Q.append(np.stack([prev, cur, np.roll(cur, -1), np.roll(prev, -1)], 1))
-        prev = cur
-    UV = np.vstack(P)
-    Q = np.vstack(Q).astype(np.int64)
-    a = UV[Q[:, 1]] - UV[Q[:, 0]]
-    b = UV[Q[:, 3]] - UV[Q[:, 0]]
-    flip = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
-    Q[flip] = Q[flip][:, ::-1]
-    return UV, Q
-
-
-def subdivision_candidate(V, T, panel_size: float, levels: int = 2, name: str = "surface"):
-    """Coarse quad net on a disk parametrization, Catmull-Clark subdivided and pulled onto the surface.
-
-    The design surface (a topological disk) is mapped onto the unit disk (:func:`components.parametrize_conformal.
-    disk_map`, boundary by arc length, harmonic interior). A coarse "O-grid" there (a square block of ``n × n``
-    quads and rings of quads around it, every boundary node of valence 3, four valence-3 interior vertices), lifted
-    back onto the surface by barycentric interpolation, is the coarse net: its boundary nodes lie on the surface
-    boundary and no panel has a straight corner. ``n`` is chosen so that after ``levels`` Catmull-Clark steps
-    (crease boundary) the boundary panels are about ``panel_size`` long; the subdivided net is then pulled onto
-    the surface, its boundary onto the surface boundary (:func:`components.pull.pulled_vertices`).
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-        Design surface vertices.
-    T : (t, 3) int64
-        Design surface triangles (one boundary loop).
-    panel_size : float
-        Target panel edge length (model units).
-    levels : int
-        Catmull-Clark levels (each multiplies the face count by 4).
-    name : str
-        Name of the surface input in error messages.
-
-    Returns
-    -------
-    V : (p, 3) float64
-    Q : (q, 4) int64
-        Pulled subdivided quad mesh (the planarization candidate).
-    info : dict
-        ``coarse`` (the coarse ``(V, Q)``), ``n`` (block size), ``rings``, ``steps`` (seconds per step),
-        ``warnings``.
-
-    Notes
-    -----
-    The third strategy of Liu et al. 2006 (coarse net → subdivision → bring onto the surface → planarize);
-    here the coarse net is generated automatically instead of drawn by a designer. A grid of the unit square
-    mapped onto a smooth boundary would put four panels with a 180° corner at the square's corners, which no
-    planarizer can keep healthy: the O-grid avoids them.
-    """
-    from components.parametrize_conformal import disk_map
-    from components.pull import pulled_vertices
-    from components.subdivide import catmull_clark
-
-    V, T = validate_mesh(V, T, name=name, kind="triangle")
-    h = _check_panel_size(panel_size, V)
-    steps = {}
-    warnings: list[str] = []
-    t = time.perf_counter()
-    UV, info = disk_map(V, T, shape="disk")
-    warnings += info["warnings"]
-    loop = boundary_loops(T, name=name)[0]
-    perimeter = float(np.sum(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1)))
-    n = max(2, int(round(perimeter / 4 / (h * 2 ** levels))))
-    rings = max(1, int(round(0.3 * n)))
-    G, Qc = _disk_net(n, rings)
-    tri, w = _locate(UV, T, G)
-    Vc = np.einsum("pk,pkd->pd", w, V[T[tri]])
-    # same orientation as the design surface: the net is counter-clockwise in UV
-    a0 = UV[T[:, 1]] - UV[T[:, 0]]
-    a1 = UV[T[:, 2]] - UV[T[:, 0]]
-    if np.sum(a0[:, 0] * a1[:, 1] - a0[:, 1] * a1[:, 0]) < 0:
-        Qc = Qc[:, ::-1].copy()
-    steps["parametrize"] = time.perf_counter() - t
-    t = time.perf_counter()
-    Vs, Qs, _ = catmull_clark(Vc, Qc, levels=levels, boundary="crease", name="coarse net")
-    steps["subdivide"] = time.perf_counter() - t
-    t = time.perf_counter()
-    pulled = pulled_vertices(Vs, Qs, V, T, boundary="boundary", name="subdivided net", reference_name=name)
-    warnings += pulled.warnings
-    steps["pull"] = time.perf_counter() - t
-    return pulled.V, Qs, {"coarse": (Vc, Qc), "n": n, "rings": rings, "steps": steps, "warnings": warnings}
-
-
-def _planarize(Vc, Qc, V, T, time_budget):
-    from components.planarize import planarize_mesh
-
-    return planarize_mesh(Vc, Qc, reference=(V, T), boundary="slide", tolerance=1e-4, max_iterations=100,
-                          time_budget=time_budget, mesh_name="candidate")
-
-
-def _planarize_detail(res) -> str:
-    return (f"planarized in {res.iterations} iterations ({res.stop_reason}), max planarity "
-            f"{res.max_planarity:.2g}, worst corner {res.worst_corner_angle:.1f}°")
+    loop = boundary_loops(T)[0]
+    perimeter = float(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1).sum())
+    coarse_edge = panel_size * 2 ** levels
+    return int(np.clip(round((perimeter / 4 / coarse_edge) ** 2 * 1.5), 12, 400))
 
 
 def _run_subdivision(V, T, panel_size, time_budget=30.0):
-    Vc, Qc, info = subdivision_candidate(V, T, panel_size)
-    timings = dict(info["steps"])
-    warnings = list(info["warnings"])
-    t = time.perf_counter()
-    res = _planarize(Vc, Qc, V, T, time_budget)
-    timings["planarize"] = time.perf_counter() - t
-    warnings += list(res.warnings)
-    if not res.converged:
-        warnings.append(f"planarization did not reach 1e-4 ({res.stop_reason}); max planarity {res.max_planarity:.3g}")
-    n, k = info["n"], info["rings"]
-    detail = (f"coarse O-grid ({n}×{n} block + {k} ring{'s' if k > 1 else ''}) on a disk parametrization, "
-              "2 Catmull-Clark levels, pulled; "
-              + _planarize_detail(res))
-    return Candidate((Vc, Qc), (res.mesh[0], res.mesh[1]), timings, warnings, detail)
+    from components.subdivision_pipeline import subdivision_pq
 
-
-def _missing_planarize() -> str | None:
-    try:
-        mod = importlib.import_module("components.planarize")
-    except ImportError as exc:
-        return f"components.planarize cannot be imported ({exc})"
-    return None if hasattr(mod, "planarize_mesh") else "components.planarize.planarize_mesh does not exist yet"
-
-
-# ----------------------------------------------------------------------------------------------
-# strategies 2 and 3: pipelines written elsewhere, found by name
-
-
-_PIPELINE_MODULES = ("components.pipelines", "components.curvature_network", "components.conical",
-                     "components.conformal_pipeline", "components.network")
-
-
-def _find_function(fname: str, modules=_PIPELINE_MODULES):
-    """The first of ``modules`` that defines ``fname``, or None."""
-    import importlib.util
-
-    for modname in modules:
-        try:
-            if importlib.util.find_spec(modname) is None:
-                continue
-            mod = importlib.import_module(modname)
-        except ImportError as exc:  # a module that exists but does not import: report it, do not hide it
-            log.warning("%s does not import: %s", modname, exc)
-            continue
-        fn = getattr(mod, fname, None)
-        if callable(fn):
-            return fn
-    return None
-
-
-_SIZE_KEYWORDS = ("panel_size", "target_edge_length", "edge_length", "spacing", "target_length")
-_CANDIDATE_FIELDS = ("candidate", "candidate_mesh", "extracted", "extracted_mesh", "quad_mesh", "rebuilt")
-_OPTIMIZED_FIELDS = ("mesh", "optimized", "optimized_mesh", "planarized", "planar_mesh", "pq_mesh")
-
-
-def _as_mesh(value):
-    if isinstance(value, (tuple, list)) and len(value) in (2, 3):
-        V = np.asarray(value[0], dtype=np.float64)
-        F = np.asarray(value[1], dtype=np.int64)
-        if V.ndim == 2 and V.shape[1] == 3 and F.ndim == 2:
-            return V, F
-    return None
-
-
-def _call_pipeline(fname: str, V, T, panel_size, time_budget):
-    """Call a published pipeline component ``fname(mesh, <panel size keyword>=..., ...)`` and read its meshes."""
-    fn = _find_function(fname)
-    if fn is None:
-        raise RuntimeError(f"{fname} not found")
-    sig = inspect.signature(fn)
-    kwargs = {}
-    for kw in _SIZE_KEYWORDS:
-        if kw in sig.parameters:
-            kwargs[kw] = float(panel_size)
-            break
-    else:
-        log.info("%s has no panel-size input (%s): running with its defaults", fname, ", ".join(_SIZE_KEYWORDS))
-    if "time_budget" in sig.parameters:
-        kwargs["time_budget"] = float(time_budget)
-    t = time.perf_counter()
-    res = fn((V, T), **kwargs)
-    elapsed = time.perf_counter() - t
-    fields = getattr(res, "_fields", ())
-    cand = next((_as_mesh(getattr(res, f)) for f in _CANDIDATE_FIELDS if f in fields
-                 and _as_mesh(getattr(res, f)) is not None), None)
-    opt = next((_as_mesh(getattr(res, f)) for f in _OPTIMIZED_FIELDS if f in fields
-                and _as_mesh(getattr(res, f)) is not None), None)
-    if cand is None and opt is None:
-        raise RuntimeError(f"{fname} returned no mesh output (fields: {', '.join(fields) or type(res).__name__})")
-    if cand is None:
-        cand, opt = opt, None
-    timings = {"pipeline": elapsed}
-    for f in fields:  # pipelines may report their own step timings
-        if f.startswith("time_") or f.endswith("_time") or f == "timings":
-            val = getattr(res, f)
-            if isinstance(val, dict):
-                timings.update({str(k): float(v) for k, v in val.items()})
-            elif np.isscalar(val):
-                timings[f] = float(val)
-    warnings = [str(w) for w in getattr(res, "warnings", []) or []]
-    used = ", ".join(f"{k}={v:g}" for k, v in kwargs.items())
-    return Candidate(cand, opt, timings, warnings, f"{fn.__module__}.{fname}({used})")
-
-
-def _missing_function(fname: str, modules=_PIPELINE_MODULES) -> Callable[[], str | None]:
-    def missing():
-        if _find_function(fname, modules) is None:
-            return f"{fname} is not implemented yet"
-        return None
-
-    return missing
+    faces = _subdivision_faces(V, T, panel_size)
+    res = subdivision_pq(V, T, faces=faces, levels=2, time_budget=float(time_budget))
+    opt = res.planarized
+    detail = (f"automatic coarse net ({len(res.coarse[1])} faces), 2 Catmull-Clark levels, pulled onto the surface; "
+              f"planarized: max planarity {opt.max_planarity:.2g} after {opt.iterations} iterations "
+              f"({opt.stop_reason}), worst corner {opt.worst_corner_angle:.0f}°")
+    return Candidate(tuple(res.candidate[:2]), tuple(opt.mesh[:2]), dict(res.timings), list(res.warnings), detail)
 
 
 def _run_conjugate(V, T, panel_size, time_budget=30.0):
@@ -654,7 +396,16 @@ def _run_conjugate(V, T, panel_size, time_budget=30.0):
 
 
 def _run_network(V, T, panel_size, time_budget=30.0):
-    return _call_pipeline("pq_from_curvature_network", V, T, panel_size, time_budget)
+    from components.curvature_pipeline import pq_from_curvature_network
+
+    t = time.perf_counter()
+    res = pq_from_curvature_network((V, T), panel_size=float(panel_size), optimize=True,
+                                    time_budget=float(time_budget))
+    timings = {"pipeline": time.perf_counter() - t}
+    detail = (f"principal curvature network ({100 * res.quad_fraction:.0f}% quads, edges {res.mean_angle_error:.1f}° "
+              f"from the principal directions); conical optimization: max planarity {res.max_planarity:.2g}, "
+              f"max conical criterion {res.max_criterion:.2g} rad")
+    return Candidate(tuple(res.candidate[:2]), tuple(res.optimized[:2]), timings, list(res.warnings), detail)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -667,13 +418,13 @@ STRATEGIES: tuple[Strategy, ...] = (
              _run_translation, lambda: None),
     Strategy("conjugate_field", "Conjugate field",
              "conjugate direction field → quad extraction → planarization",
-             _run_conjugate, _missing_function("pq_from_conjugate_field", ("components.pipelines",))),
+             _run_conjugate, lambda: None),
     Strategy("curvature_network", "Curvature network",
              "curvature-line network → conformal map → quad rebuild → conical optimization",
-             _run_network, _missing_function("pq_from_curvature_network")),
+             _run_network, lambda: None),
     Strategy("subdivision", "Subdivision",
-             "coarse quad net → Catmull-Clark → pull onto the surface → planarization",
-             _run_subdivision, _missing_planarize),
+             "automatic coarse quad net → Catmull-Clark → pull onto the surface → planarization",
+             _run_subdivision, lambda: None),
 )
 
 

@@ -314,13 +314,18 @@ def test_translation_fits_a_hyperbolic_paraboloid_along_its_bisectors():
     assert quad_planarity(Vt, Qt).max() < 1e-12
 
 
-def test_subdivision_candidate_lies_on_the_surface():
-    V, T, _ = sample_mesh("dome", 24)
-    Vc, Qc, info = st.subdivision_candidate(V, T, st.default_panel_size(V, 10))
-    d, _ = vertex_distances(Vc, V, T, signed=False)
-    assert np.abs(d).max() < 1e-9
-    assert Qc.shape[1] == 4 and len(Qc) == 16 * len(info["coarse"][1])
-    assert len(boundary_loops(Qc)) == 1
+def test_every_strategy_runs_on_the_dome():
+    V, T, _ = sample_mesh("dome", 16)
+    h = st.default_panel_size(V, 8)
+    for name in st.strategy_names():
+        r = st.run_strategy(name, V, T, h, surface="dome", time_budget=10)
+        assert r.status == "ok", (name, r.detail)
+        Vc, Qc = r.candidate
+        if name != "translation":  # the translation fit is exact PQ off the surface; the others are built on it
+            d, _ = vertex_distances(Vc, V, T, signed=False)
+            assert np.abs(d).max() < 1e-6 * np.ptp(V, axis=0).max(), name
+        if r.metrics_after is not None:  # strategies with an optimization step never make planarity worse
+            assert r.metrics_after["planarity_max"] <= r.metrics_before["planarity_max"] + 1e-12, name
 
 
 def test_run_strategy_result_shape():
@@ -330,7 +335,7 @@ def test_run_strategy_result_shape():
     assert r.optimized is not None and r.optimized[1].shape == r.candidate[1].shape
     assert r.final is r.optimized
     assert r.metrics_after["planarity_max"] <= r.metrics_before["planarity_max"] + 1e-12
-    assert {"parametrize", "subdivide", "pull", "planarize", "total"} <= set(r.timings)
+    assert {"planarize", "total"} <= set(r.timings)
 
 
 def test_not_available_and_failed_strategies(monkeypatch):
@@ -350,8 +355,6 @@ def test_bad_inputs_name_the_input():
         st.run_strategy("nope", V, T, 1.0)
     with pytest.raises(InputError, match="panel_size"):
         st.translation_candidate(V, T, -1.0)
-    with pytest.raises(InputError, match="panel_size"):
-        st.subdivision_candidate(V, T, 1e6)
     # a bad panel size inside a run is a failed row, not a crash
     r = st.run_strategy("translation", V, T, float("nan"))
     assert r.status == "failed" and "panel_size" in r.detail
