@@ -228,6 +228,7 @@ class _State(NamedTuple):
     angle: np.ndarray  # unsigned corner angles
     nonconvex: int  # faces with a corner turning the wrong way (among the guarded faces)
     healthy: bool
+    planarity: np.ndarray  # (m,) the reported scale-free planarity of every face
 
 
 def planarize_mesh(
@@ -377,7 +378,7 @@ def planarize_mesh(
         ref_bnd_X = XR
     else:
         XR = None
-        ref_loops = boundary_loops(F, name=mesh_name)
+        ref_loops = None  # the mesh's own loops, below
         ref_bnd_X = X0
     N0 = _vertex_normals(X0, F, corners)
 
@@ -385,6 +386,8 @@ def planarize_mesh(
     fixed = np.zeros(n, dtype=bool)
     slide = np.zeros(n, dtype=bool)
     loops = boundary_loops(F, name=mesh_name)
+    if ref_loops is None:
+        ref_loops = loops
     bmask = np.zeros(n, dtype=bool)
     for lp in loops:
         bmask[lp] = True
@@ -465,6 +468,7 @@ def planarize_mesh(
     is_quad_row = np.zeros(len(Q4), dtype=bool)
     is_quad_row[: int((sizes == 4).sum())] = True
     ngons = np.nonzero(sizes > 4)[0]
+    quads = np.nonzero(sizes == 4)[0]
     stars = vertex_stars(F, n)
     lap = _laplacian_triplets(E, n) if fairness_mode == "laplacian" else None
     conical_on = w_con > 0 and len(stars.center) > 0
@@ -515,13 +519,16 @@ def planarize_mesh(
         return atol / np.maximum(md, 1e-300)
 
     def evaluate(Xc, tang):
-        r = goals.planarity_residual(Xc, Q4)
-        sc = float(np.max(np.abs(r[is_quad_row]) / tolerance_of(Xc)[is_quad_row])) if is_quad_row.any() else 0.0
+        r = np.abs(goals.planarity_residual(Xc, Q4))
+        pl = np.zeros(len(F))
+        pl[quads] = r[is_quad_row]  # the diagonal distance over the mean diagonal: the reported quad measure
+        sc = float(np.max(r[is_quad_row] / tolerance_of(Xc)[is_quad_row])) if is_quad_row.any() else 0.0
         if len(ngons):  # the reported n-gon measure (least-squares plane), not the pseudo-quad rows
+            pl[ngons] = face_planarity(Xc, F[ngons])
             if use_abs:
                 sc = max(sc, float(warping_height(Xc * scale, F[ngons]).max()) / atol)
             else:
-                sc = max(sc, float(face_planarity(Xc, F[ngons]).max()) / tol)
+                sc = max(sc, float(pl[ngons].max()) / tol)
         if conical_on:
             sc = max(sc, float(np.abs(goals.conical_residual(Xc, corners, stars)).max()) / CONICAL_TOLERANCE)
         turn, ang = corner_turns(Xc, corners, face_normals(Xc, F))
@@ -533,7 +540,7 @@ def planarize_mesh(
         if guarded.any():
             healthy = bool(np.all(turn[guarded] >= sigma_min[guarded]) and np.all(ang[guarded] >= angle_floor[guarded])
                            and not ncv.any())
-        return _State(Xc, tang, sc, turn, ang, nconv, healthy)
+        return _State(Xc, tang, sc, turn, ang, nconv, healthy, pl)
 
     def met(st):
         """Tolerance reached (the score holds the reported n-gon measure, and the conical criterion when on)."""
@@ -546,13 +553,12 @@ def planarize_mesh(
             last_query[:] = [Xc, ref_index.query(Xc)]
         return last_query[1]
 
-    def measures(Xc):
-        pl = face_planarity(Xc, F)
+    def measures(st):
         if XR is not None:
-            d = ref_query(Xc).distances
+            d = ref_query(st.X).distances
         else:
-            d = np.linalg.norm(Xc - X0, axis=1)
-        return pl, d * scale
+            d = np.linalg.norm(st.X - X0, axis=1)
+        return st.planarity, d * scale
 
     # ------------------------------------------------------------------ one step
     def soft_terms(Xc, value_only=False):
@@ -598,7 +604,13 @@ def planarize_mesh(
 
     def inverse_metric(H, tang):
         """``G = P (Pᵀ H P)⁻¹ Pᵀ``: free vertices move in 3D, sliding ones along their boundary tangent, fixed not."""
-        blocks = [np.linalg.inv(H[free_idx])] if len(free_idx) else []
+        if not len(free_idx):
+            blocks = []
+        elif alpha > 0:
+            blocks = [np.linalg.inv(H[free_idx])]
+        else:  # diagonal metric
+            blocks = [np.zeros((len(free_idx), 3, 3))]
+            blocks[0][:, [0, 1, 2], [0, 1, 2]] = 1.0 / H[free_idx][:, [0, 1, 2], [0, 1, 2]]
         idx = [free_idx]
         if len(slide_idx):
             q = np.einsum("ij,ijk,ik->i", tang, H[slide_idx], tang)
@@ -630,7 +642,7 @@ def planarize_mesh(
     Xs, tangents = project_slide(X0)
     cur = evaluate(Xs, tangents)
     start_score = cur.score
-    pl, cl = measures(cur.X)
+    pl, cl = measures(cur)
     hist = dict(maxp=[float(pl.max())], meanp=[float(pl.mean())], maxc=[float(cl.max())],
                 meanc=[float(cl.mean())], t=[time.perf_counter() - t0])
     best = cur
@@ -745,7 +757,7 @@ def planarize_mesh(
             break
         it += 1
         cur = accepted
-        pl, cl = measures(cur.X)
+        pl, cl = measures(cur)
         hist["maxp"].append(float(pl.max()))
         hist["meanp"].append(float(pl.mean()))
         hist["maxc"].append(float(cl.max()))
