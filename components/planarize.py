@@ -4,14 +4,25 @@ Every meshing strategy ends with a candidate quad mesh whose faces are almost, b
 moves its vertices until every face is planar (to a tolerance) while the mesh stays close to the design surface,
 keeps its boundary and anchors, stays fair and keeps its panels healthy (no collapsed or non-convex quads).
 
-Solver (guided projection after Tang, Sun, Gomes, Wallner & Pottmann 2014, "Form-finding with polyhedral meshes
-made simple"): the scale-free planarity residuals (and, optionally, the conical angle criterion) are *hard* goals,
-linearized exactly and met by a minimum-norm correction ``z = z_s + Jᵀλ``, ``(J Jᵀ + εI) λ = −(r + J z_s)``: one
-sparse SPD solve per iteration in a system with one row per face. Closeness, fairness and even panels are *soft*
-goals: they propose a Jacobi-preconditioned Gauss-Newton step ``z_s`` that the correction keeps feasible, damped
-whenever planarity stops halving. Panel health is guarded by corner-angle rows (corners within 10° of the bounds
-``0.5 ×`` the input's worst angle / its margin to 180° become hard rows) and a backtracking step that rejects small
-angles and new non-convex faces; the best state seen is returned, never one worse than the input.
+Solver: a minimum-displacement Gauss-Newton / SQP method in the spirit of guided projection (Tang, Sun, Gomes,
+Wallner & Pottmann 2014, "Form-finding with polyhedral meshes made simple"). The scale-free planarity residuals
+(and, optionally, the conical angle criterion) are *hard* rows ``c(X) = s``, linearized exactly; the soft goals form
+an objective ``½ (1 + start_weight)|X − X0|² + ½ α Σ (n·(X − C))² + ½ Σ w |r|²`` (displacement from the input,
+distance to the reference's tangent planes, fairness / even edges / even areas) whose block-diagonal majorizer
+``H`` is the step metric. Every iteration solves one sparse SPD system with one row per face,
+``(J G Jᵀ) λ = rhs`` with ``G = H⁻¹`` restricted to the free / sliding directions, for two right-hand sides:
+the feasibility step ``Δf`` (the minimum-norm correction in the metric) and the optimality step ``Δo`` (the soft
+step projected on the linearized constraints). Phases: *restore* (``Δf`` steps with backtracking until the
+tolerance is met: planarity converges quadratically), *optimize* (``Δf + tΔo`` while planarity stays within 30 ×
+the tolerance and the objective decreases: this walks along the planar meshes toward the smallest displacement /
+closest fit / fairest net), *polish* (``Δf`` steps back below the tolerance). Faces above ``relax ×`` the tolerance
+are driven to that value, not to 0, so a loose tolerance costs little displacement.
+
+Panel health: the signed turn of every corner (sine of the interior angle, negative at a reflex corner) may not fall
+below half of the quads' worst input value (nor below half of its own): corners that a trial step would push below
+become hard rows (inequalities in effect: rows whose multiplier holds a turn down are released), steps are
+shortened otherwise, and no face may turn non-convex. The best state seen is returned, never one worse than the
+input in planarity; when the tolerance is not reached a warning says how far it is.
 
 Public array-level functions: :func:`planarize_mesh`, and the measures re-exported from
 :mod:`components.planarize_geometry` (:func:`face_planarity`, :func:`warping_height`, :func:`corner_angles`,
@@ -69,7 +80,7 @@ __all__ = [
 BOUNDARY_MODES = ("fixed", "slide", "free")
 FAIRNESS_MODES = ("polylines", "laplacian")
 CONICAL_TOLERANCE = 1e-6  # radians, criterion ω1 − ω2 + ω3 − ω4 when the conical goal is on
-_NORMAL_STIFFNESS = 20.0  # closeness: distance to the reference's tangent plane costs 10·closeness_weight
+_NORMAL_STIFFNESS = 20.0  # closeness (with a reference): distance to its tangent plane costs 20·closeness_weight
 _KAPPA = 30.0  # optimize phase: planarity may rise to κ × tolerance while the displacement is minimized
 _OPT_ITERATIONS = 20  # optimize phase: iteration cap
 _OPT_STEP = 1e-3  # optimize phase ends when the optimality step moves no vertex more than this (mean edges)
@@ -268,7 +279,9 @@ def planarize_mesh(
         Reference surface mesh to stay on (any polygons; triangulated internally). When absent, closeness is to the
         tangent planes of the start mesh at the start positions.
     closeness_weight : float
-        Weight of the pull toward the reference (point-to-tangent-plane distance, in mean edge lengths).
+        Weight of the pull toward the reference: distance to its tangent plane at the closest point, costing
+        ``20 × closeness_weight`` against a displacement of the same length (in mean edge lengths). Without a
+        reference, moving along the start normals costs ``1 + closeness_weight`` times moving tangentially.
     start_weight : float
         Weight of the pull toward the start positions (all three directions).
     fairness_weight : float
@@ -959,10 +972,12 @@ def planarize(
     Guided projection after Tang, Sun, Gomes, Wallner & Pottmann, "Form-finding with polyhedral meshes made
     simple", ACM TOG 33(4), 2014: planarity (and the conical criterion of Liu, Pottmann, Wallner, Yang & Wang,
     "Geometric modeling with conical meshes and developable surfaces", 2006) are hard constraints, linearized and
-    met by a minimum-norm correction (one sparse SPD solve in the face-sized system per iteration); the soft goals
-    contribute a preconditioned Gauss-Newton step that the correction keeps feasible. Corners approaching a
-    collapse (below ``0.5 ×`` the input's worst angle) or a fold become hard rows, and steps that would still make
-    unhealthy panels are shortened. Which tolerance applies: ``tolerance > 0`` → scale-free planarity;
+    met by a minimum-norm correction in the metric of the soft goals (one sparse SPD solve in the face-sized
+    system per iteration); once met, the solver walks along the planar meshes toward the smallest displacement
+    and closest fit to the reference, then polishes back below the tolerance. Corners approaching a collapse
+    (below half the input's worst corner) or a fold become hard rows, and steps that would still make unhealthy
+    panels are shortened. With ``boundary="slide"``, boundary corners (sharp at two scales) stay fixed and the
+    lone corners of faces lying wholly on the boundary are set free (a warning says so). Which tolerance applies: ``tolerance > 0`` → scale-free planarity;
     ``tolerance == 0`` and ``absolute_tolerance > 0`` → warping height in model units; both 0 → 1e-4 scale-free.
 
     Example
