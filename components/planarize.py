@@ -265,6 +265,7 @@ def planarize_mesh(
     time_budget: float = 30.0,
     angle_guard: float = 0.5,
     relax: float = 0.9,
+    optimize_iterations: int = _OPT_ITERATIONS,
     mesh_name: str = "mesh",
 ) -> PlanarizeResult:
     """Make every face of a polygon mesh planar while keeping it close, fair, anchored and healthy.
@@ -315,6 +316,9 @@ def planarize_mesh(
     relax : float
         Faces above ``relax × tolerance`` are driven to that value, not to 0 (in ``(0, 1]``; smaller values leave
         more margin, larger ones move less).
+    optimize_iterations : int
+        Cap of the optimize phase (walking along the planar meshes toward the smallest displacement / closest fit /
+        fairest net once the tolerance is met); 0 skips it: fastest, the plain minimum-norm Gauss-Newton result.
     mesh_name : str
         Name of the mesh input used in error messages.
 
@@ -355,6 +359,10 @@ def planarize_mesh(
         raise InputError("max_iterations", f"must be an integer, got {max_iterations!r}") from None
     if max_it < 0:
         raise InputError("max_iterations", f"must be non-negative, got {max_it}")
+    try:
+        opt_cap = int(optimize_iterations)
+    except (TypeError, ValueError):
+        raise InputError("optimize_iterations", f"must be an integer, got {optimize_iterations!r}") from None
     if boundary not in BOUNDARY_MODES:
         raise InputError("boundary", f"must be one of {BOUNDARY_MODES}, got {boundary!r}")
     if fairness_mode not in FAIRNESS_MODES:
@@ -683,7 +691,7 @@ def planarize_mesh(
 
     while not stop_reason:
         if converged:
-            if phase == "restore" and _OPT_ITERATIONS > 0 and time.perf_counter() - t0 < 0.5 * budget:
+            if phase == "restore" and opt_cap > 0 and time.perf_counter() - t0 < 0.5 * budget:
                 phase = "optimize"
             elif phase != "optimize":
                 stop_reason = "tolerance reached"
@@ -790,7 +798,7 @@ def planarize_mesh(
         if optimize:
             opt_its += 1
             t_opt = min(1.0, 2.0 * t)
-            if (opt_its >= _OPT_ITERATIONS or step_opt < _OPT_STEP or f_cur - f_new < _OPT_DECREASE * f_cur
+            if (opt_its >= opt_cap or step_opt < _OPT_STEP or f_cur - f_new < _OPT_DECREASE * f_cur
                     or time.perf_counter() - t0 > 0.5 * budget):
                 phase = "polish"
                 since_best = 0
