@@ -1,8 +1,8 @@
 """The comparison report: every PQ strategy on the built-in surfaces (and on mesh files), with pictures.
 
-``ghserver report`` and ``ghserver demo`` call :func:`run_report` / :func:`run_demo` (wired by
-:func:`add_report_arguments` / :func:`report_command` and :func:`add_demo_arguments` / :func:`demo_command`;
-``python -m ghserver.report`` runs the same commands). The output folder holds:
+``ghserver report`` and ``ghserver demo`` call :func:`run_report` / :func:`run_demo` (wired in
+:mod:`ghserver.cli` by :func:`add_report_arguments` / :func:`report_command` and :func:`add_demo_arguments` /
+:func:`demo_command`). The output folder holds:
 
 * ``report.html``: self-contained (inline CSS, no scripts, no fonts, no network) apart from the PNGs next to it,
   linked relatively as ``img/...``; valid HTML5;
@@ -856,26 +856,3 @@ def report_command(args) -> int:
 def demo_command(args) -> int:
     """``ghserver demo``: run :func:`run_demo`; prints the elapsed time and where the report is."""
     return _done(run_demo(args.out, progress=not args.no_progress))
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m ghserver.report {report,demo} ...``."""
-    parser = argparse.ArgumentParser(prog="python -m ghserver.report",
-                                     description="comparison report of the PQ strategies")
-    sub = parser.add_subparsers(dest="command")
-    r = sub.add_parser("report", help="run every strategy on the built-in surfaces and mesh files")
-    add_report_arguments(r)
-    r.set_defaults(func=report_command)
-    d = sub.add_parser("demo", help="the report on the built-in surfaces (under 2 minutes)")
-    add_demo_arguments(d)
-    d.set_defaults(func=demo_command)
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
-    return args.func(args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

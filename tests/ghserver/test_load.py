@@ -59,8 +59,6 @@ def _requests(n=200, seed=0):
 
 
 def test_two_hundred_mixed_requests_eight_clients():
-    from ghserver.endpoints import COMPONENTS  # noqa: F401  (the worker factory below imports it too)
-
     cfg = Config(workers=2, solve_timeout=1.5, registry_factory="tests.ghserver.test_fuzz:fuzz_registry",
                  cache_size=0, max_pending_solves=64)
     app = create_app(cfg)

@@ -8,7 +8,6 @@ import pytest
 
 from components.types import Mesh, Numbers
 from ghserver.registry import RegistrationError, Registry, _entries, _sections, declare
-from tests.ghserver import echo
 
 
 class R(NamedTuple):

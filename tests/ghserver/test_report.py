@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from components import strategies as st
+from ghserver.cli import main as cli_main
 from components.mesh import InputError, boundary_loops, write_obj
 from components.metrics import quad_planarity, vertex_distances
 from components.samples import SAMPLE_NAMES, sample_mesh
@@ -266,17 +267,17 @@ def test_report_on_a_mesh_file(tmp_path):
 
 
 def test_report_command_line(tmp_path, capsys):
-    assert rp.main(["report", "--quick", "--no-progress", "--surfaces", "dome", "--strategies", "translation",
+    assert cli_main(["report", "--quick", "--no-progress", "--surfaces", "dome", "--strategies", "translation",
                     "--out", str(tmp_path)]) == 0
     assert "report written to" in capsys.readouterr().out
-    assert rp.main(["report", "--quick", "--no-progress", "--strategies", "nope", "--out", str(tmp_path)]) == 2
+    assert cli_main(["report", "--quick", "--no-progress", "--strategies", "nope", "--out", str(tmp_path)]) == 2
     assert "strategy" in capsys.readouterr().err
     # bad options fail before the previous report is touched
     before = sorted(p.name for p in (tmp_path / "img").iterdir())
-    assert rp.main(["report", "--quick", "--surfaces", "blob", "--out", str(tmp_path)]) == 2
+    assert cli_main(["report", "--quick", "--surfaces", "blob", "--out", str(tmp_path)]) == 2
     assert "surfaces" in capsys.readouterr().err
-    assert rp.main(["report", "--quick", "--surfaces", "none", "--out", str(tmp_path)]) == 2
-    assert rp.main(["report", "--quick", str(tmp_path / "missing.obj"), "--out", str(tmp_path)]) == 2
+    assert cli_main(["report", "--quick", "--surfaces", "none", "--out", str(tmp_path)]) == 2
+    assert cli_main(["report", "--quick", str(tmp_path / "missing.obj"), "--out", str(tmp_path)]) == 2
     assert "missing.obj" in capsys.readouterr().err
     assert sorted(p.name for p in (tmp_path / "img").iterdir()) == before and before
 

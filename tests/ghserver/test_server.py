@@ -66,7 +66,7 @@ def test_multi_megabyte_body(live_server):
 
 
 def test_compute_rhino3d_client_drives_the_server(live_server):
-    compute_rhino3d = pytest.importorskip("compute_rhino3d")
+    pytest.importorskip("compute_rhino3d")
     from compute_rhino3d import Grasshopper as gh
     from compute_rhino3d import Util
 
