@@ -36,7 +36,8 @@ from components.types import Mesh
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ExtractResult", "Extraction", "extract_quads", "iso_segments", "quad_mesh_from_parametrization"]
+__all__ = ["ExtractResult", "Extraction", "extract_quads", "iso_segments", "quad_mesh_from_parametrization",
+           "snap_boundary"]
 
 _TOL = 1e-9  # parameter tolerance (in grid units) for "on an iso-line"
 
@@ -503,7 +504,7 @@ class ExtractResult(NamedTuple):
 
 
 def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
-                  boundary: str = "aligned") -> ExtractResult:
+                  boundary: str = "snap") -> ExtractResult:
     """Candidate quad-dominant mesh of a surface from the integer iso-lines of a field-aligned parametrization.
 
     Parameters
@@ -517,7 +518,8 @@ def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", al
     alignment : float
         Weight of the field's pull towards the principal curvature directions.
     boundary : str
-        ``"aligned"`` (boundary stretches follow iso-lines: whole quads along the boundary) or ``"free"``.
+        ``"snap"`` (default: free parametrization, grid vertices near the boundary snapped onto it: whole quads
+        along the boundary), ``"aligned"`` (boundary stretches follow iso-lines) or ``"free"`` (clipped cells).
 
     Returns
     -------
@@ -558,3 +560,278 @@ def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", al
     res = pipelines.candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary)
     return ExtractResult((res.V, res.F), res.quads, res.other_faces, res.singularities, res.quad_ratio,
                          res.mean_angle_error, list(res.warnings))
+
+
+# ----------------------------------------------------------------------------------------------
+# boundary snapping (free boundary → whole quads along the boundary)
+
+
+class _BoundaryCurve(NamedTuple):
+    A: np.ndarray  # (b, 3) start of each input boundary edge
+    B: np.ndarray  # (b, 3) end
+    tri: np.ndarray  # (b,) its triangle
+    ca: np.ndarray  # (b,) corner (0..2) of the start in that triangle
+    cb: np.ndarray  # (b,) corner of the end
+
+
+def _boundary_curve(V: np.ndarray, T: np.ndarray) -> _BoundaryCurve:
+    topo = edge_topology(T)
+    he = np.nonzero(topo.count[topo.HE] == 1)[0]
+    f, c = he // 3, he % 3
+    return _BoundaryCurve(V[T[f, c]], V[T[f, (c + 1) % 3]], f, c, (c + 1) % 3)
+
+
+def _closest_on_boundary(P: np.ndarray, bc: _BoundaryCurve, chunk: int = 2048):
+    """Closest points of ``P`` on the input boundary: points, triangles, barycentric coordinates."""
+    D = bc.B - bc.A
+    dd = np.maximum(np.einsum("ij,ij->i", D, D), 1e-300)
+    best = np.empty(len(P), dtype=np.int64)
+    tbest = np.empty(len(P))
+    for s in range(0, len(P), chunk):
+        Q = P[s:s + chunk]
+        t = np.clip(np.einsum("qbd,bd->qb", Q[:, None, :] - bc.A[None], D) / dd[None], 0.0, 1.0)
+        X = bc.A[None] + t[..., None] * D[None]
+        d2 = np.einsum("qbd,qbd->qb", X - Q[:, None, :], X - Q[:, None, :])
+        j = np.argmin(d2, axis=1)
+        best[s:s + chunk] = j
+        tbest[s:s + chunk] = t[np.arange(len(Q)), j]
+    X = bc.A[best] + tbest[:, None] * D[best]
+    bary = np.zeros((len(P), 3))
+    bary[np.arange(len(P)), bc.ca[best]] = 1.0 - tbest
+    bary[np.arange(len(P)), bc.cb[best]] += tbest
+    return X, bc.tri[best], bary
+
+
+def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: np.ndarray,
+                  grid: np.ndarray, target_length: float, snap: float = 0.5, relax: int = 8):
+    """Turn the clipped cells along a free boundary into whole quads: snap grid vertices onto the boundary.
+
+    A grid vertex joined to boundary hits by short edges (shorter than ``snap · target_length``) absorbs them and
+    moves to its closest point on the input boundary: corner-cut triangles vanish, the pentagons beside them
+    become quads, thin strips along the boundary collapse. The band of vertices along the boundary (the boundary
+    and its first interior ring) is then relaxed (boundary vertices slide along the boundary, the ring moves in the
+    surface) so the rows next to the boundary share the length left over by the grid.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Input surface vertices.
+    T : (m, 3) int64
+        Input triangles.
+    Vc : (p, 3) float64
+        Candidate vertices.
+    Fc : (f, k) int64
+        Candidate faces (padded).
+    tri : (p,) int64
+        Input triangle of every candidate vertex.
+    bary : (p, 3) float64
+        Its barycentric coordinates.
+    grid : (p,) bool
+        True for grid vertices (iso-line crossings), False for boundary hits and corners.
+    target_length : float
+        Grid spacing in model units.
+    snap : float
+        Boundary hits closer than ``snap · target_length`` to a grid vertex are absorbed by it.
+    relax : int
+        Relaxation sweeps of the boundary band (0: none).
+
+    Returns
+    -------
+    V, F, tri, bary, grid
+        The new candidate (same conventions).
+
+    Notes
+    -----
+    The boundary snapping of quad extraction for free boundaries (as in the boundary handling of QEx, Ebke et
+    al. 2013, where grid vertices close to the boundary are moved onto it).
+    """
+    from components.proximity import TriangleIndex
+
+    h = float(target_length)
+    if len(Fc) == 0:
+        return Vc, Fc, tri, bary, grid
+    bc = _boundary_curve(V, T)
+    topo = edge_topology(Fc)
+    E = topo.E
+    nv = len(Vc)
+    onb = np.zeros(nv, dtype=bool)
+    onb[E[topo.count == 1].ravel()] = True
+    L = np.linalg.norm(Vc[E[:, 1]] - Vc[E[:, 0]], axis=1)
+    # spokes: interior edges from an interior grid vertex to a boundary hit
+    spoke = []
+    for a, b in ((0, 1), (1, 0)):
+        g, p = E[:, a], E[:, b]
+        ok = (topo.count == 2) & grid[g] & ~onb[g] & onb[p] & ~grid[p] & (L < snap * h)
+        spoke.append(np.stack([g[ok], p[ok], np.nonzero(ok)[0]], axis=1))
+    S = np.concatenate(spoke)
+    lab = np.arange(nv)
+    if len(S):
+        # each boundary hit goes to its closest grid vertex
+        order = np.argsort(L[S[:, 2]], kind="stable")
+        S = S[order]
+        _, first = np.unique(S[:, 1], return_index=True)
+        S = S[first]
+        lab[S[:, 1]] = S[:, 0]
+        movers = np.unique(S[:, 0])
+        X, ftri, fbary = _closest_on_boundary(Vc[movers], bc)
+        Vc = Vc.copy()
+        tri = tri.copy()
+        bary = bary.copy()
+        Vc[movers], tri[movers], bary[movers] = X, ftri, fbary
+        # a face that collapses around a boundary corner (a corner of the outline between absorbed hits): the grid
+        # vertex goes to the corner instead, so sharp corners of the outline survive
+        sizes = face_sizes(Fc)
+        for fi in np.nonzero(sizes <= 5)[0]:
+            row = _face_list(Fc[fi])
+            c = {int(lab[v]) for v in row}
+            corners = [v for v in row if lab[v] == v and not grid[v] and onb[v]]
+            gs = [v for v in c if grid[v]]
+            if len(c) < 3 and len(corners) == 1 and len(gs) == 1:
+                g, v = gs[0], corners[0]
+                lab[v] = g
+                Vc[g], tri[g], bary[g] = Vc[v], tri[v], bary[v]
+        Vc, Fc, tri, bary, grid = _relabel(Vc, Fc, tri, bary, grid, lab)
+    if len(Fc):
+        Vc, Fc, tri, bary, grid = _close_boundary_corners(Vc, Fc, tri, bary, grid, bc)
+    if relax > 0 and len(Fc):
+        Vc, tri, bary = _relax_band(Vc, Fc, tri, bary, bc, relax, TriangleIndex(V, T))
+    return Vc, Fc, tri, bary, grid
+
+
+def _relabel(Vc, Fc, tri, bary, grid, lab):
+    """Apply a vertex relabelling to the faces, drop collapsed faces and unused vertices."""
+    faces = []
+    for row in Fc:
+        c = [int(lab[v]) for v in _face_list(row)]
+        c = [v for i, v in enumerate(c) if v != c[i - 1]] if len(c) > 1 else c
+        if len(c) >= 3 and len(set(c)) == len(c):
+            faces.append(c)
+        elif len(c) >= 3:
+            faces.extend(_split_pinched(c))
+    nv = len(Vc)
+    used = sorted({v for f in faces for v in f})
+    new = np.full(nv, -1, dtype=np.int64)
+    new[used] = np.arange(len(used))
+    F = pad_faces([[int(new[v]) for v in f] for f in faces]) if faces else np.zeros((0, 4), dtype=np.int64)
+    idx = np.asarray(used, dtype=np.int64)
+    return Vc[idx], F, tri[idx], bary[idx], grid[idx]
+
+
+def _close_boundary_corners(Vc, Fc, tri, bary, grid, bc):
+    """Merge the two boundary hits of a pentagon (or triangle) whose grid corner lies just outside the boundary.
+
+    A pentagon ``(g1, g2, g3, p1, p2)`` with one boundary edge ``p1 p2`` between two boundary hits is a quad whose
+    fourth corner the boundary clipped: ``p1, p2`` merge into one vertex at the boundary point closest to the
+    missing corner ``g1 + g3 − g2``; a triangle ``(g, p1, p2)`` merges its hits at the boundary point closest to
+    their midpoint (the triangle vanishes).
+    """
+    topo = edge_topology(Fc)
+    nv = len(Vc)
+    onb = np.zeros(nv, dtype=bool)
+    onb[topo.E[topo.count == 1].ravel()] = True
+    sizes = face_sizes(Fc)
+    lab = np.arange(nv)
+    taken = np.zeros(nv, dtype=bool)
+    targets, who = [], []
+    for fi in np.nonzero((sizes == 5) | (sizes == 3))[0]:
+        c = _face_list(Fc[fi])
+        k = len(c)
+        hits = [i for i in range(k) if not grid[c[i]] and onb[c[i]]]
+        if len(hits) != 2:
+            continue
+        i, j = hits
+        if (j - i) % k == k - 1:
+            i, j = j, i
+        if (j - i) % k != 1:
+            continue
+        p1, p2 = c[i], c[j]
+        if taken[p1] or taken[p2]:
+            continue
+        others = [c[(j + r) % k] for r in range(1, k - 1)]
+        if not all(grid[o] for o in others):
+            continue
+        if k == 5:
+            g1, g2, g3 = others
+            goal = Vc[g1] + Vc[g3] - Vc[g2]
+        else:
+            goal = 0.5 * (Vc[p1] + Vc[p2])
+        taken[[p1, p2]] = True
+        lab[p2] = p1
+        targets.append(goal)
+        who.append(p1)
+    if not who:
+        return Vc, Fc, tri, bary, grid
+    X, t_, b_ = _closest_on_boundary(np.asarray(targets), bc)
+    Vc, tri, bary = Vc.copy(), tri.copy(), bary.copy()
+    who = np.asarray(who)
+    Vc[who], tri[who], bary[who] = X, t_, b_
+    return _relabel(Vc, Fc, tri, bary, grid, lab)
+
+
+def _face_list(row: np.ndarray) -> list:
+    r = row.tolist()
+    while len(r) > 1 and r[-1] == r[-2]:
+        r.pop()
+    return r
+
+
+def _relax_band(Vc, Fc, tri, bary, bc, sweeps, index):
+    """Uniform Laplacian sweeps over the boundary band; boundary vertices slide on the boundary."""
+    topo = edge_topology(Fc)
+    E = topo.E
+    nv = len(Vc)
+    onb = np.zeros(nv, dtype=bool)
+    onb[E[topo.count == 1].ravel()] = True
+    # boundary corners of the candidate (valence 2) stay put
+    val = np.bincount(E.ravel(), minlength=nv)
+    ring = np.zeros(nv, dtype=bool)
+    ring[E[onb[E[:, 0]] | onb[E[:, 1]]].ravel()] = True
+    ring &= ~onb
+    # boundary vertices where the outline turns sharply (> 30°) stay put too
+    be = E[topo.count == 1]
+    vv = np.concatenate([be[:, 0], be[:, 1]])
+    ww = np.concatenate([be[:, 1], be[:, 0]])
+    o = np.argsort(vv, kind="stable")
+    vv, ww = vv[o], ww[o]
+    first = np.r_[True, vv[1:] != vv[:-1]]
+    nb1 = np.full(nv, -1, dtype=np.int64)
+    nb2 = np.full(nv, -1, dtype=np.int64)
+    nb1[vv[first]] = ww[first]
+    second = np.nonzero(~first)[0]
+    nb2[vv[second]] = ww[second]
+    ok = onb & (nb1 >= 0) & (nb2 >= 0)
+    i = np.nonzero(ok)[0]
+    d1 = Vc[nb1[i]] - Vc[i]
+    d2 = Vc[i] - Vc[nb2[i]]
+    cosang = np.einsum("ij,ij->i", d1, d2) / np.maximum(np.linalg.norm(d1, axis=1) * np.linalg.norm(d2, axis=1),
+                                                        1e-300)
+    straight = np.zeros(nv, dtype=bool)
+    straight[i] = cosang > np.cos(np.radians(30.0))
+    mov_b = onb & (val >= 3) & straight
+    mov = mov_b | ring
+    if not mov.any():
+        return Vc, tri, bary
+    # neighbours: boundary vertices average their boundary neighbours only (sliding), ring vertices all neighbours
+    bedge = topo.count == 1
+    Vc = Vc.copy()
+    tri = tri.copy()
+    bary = bary.copy()
+    rows = np.concatenate([E[:, 0], E[:, 1]])
+    cols = np.concatenate([E[:, 1], E[:, 0]])
+    isb = np.concatenate([bedge, bedge])
+    keep = np.where(onb[rows], isb, True)
+    A = sp.csr_matrix((np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(nv, nv))
+    deg = np.asarray(A.sum(axis=1)).ravel()
+    deg[deg == 0] = 1
+    ib = np.nonzero(mov_b)[0]
+    ir = np.nonzero(ring)[0]
+    for _ in range(sweeps):
+        avg = (A @ Vc) / deg[:, None]
+        Y = Vc + 0.5 * (avg - Vc)
+        if len(ib):
+            X, t_, b_ = _closest_on_boundary(Y[ib], bc)
+            Vc[ib], tri[ib], bary[ib] = X, t_, b_
+        if len(ir):
+            cp = index.query(Y[ir])
+            Vc[ir], tri[ir], bary[ir] = cp.points, cp.faces, cp.barycentric
+    return Vc, tri, bary

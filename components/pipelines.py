@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.extract import quad_mesh_from_parametrization
+from components.extract import quad_mesh_from_parametrization, snap_boundary
 from components.mesh import InputError, edge_topology, face_sizes
 from components.parametrize import (
     BOUNDARY_MODES,
@@ -80,7 +80,7 @@ def _irregular_vertices(V: np.ndarray, F: np.ndarray) -> int:
 
 
 def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
-                   boundary: str = "aligned", constraint_faces=None, constraint_directions=None,
+                   boundary: str = "snap", constraint_faces=None, constraint_directions=None,
                    merge: float = 0.05, name: str = "mesh") -> Candidate:
     """Candidate quad mesh of a surface: field → seamless parametrization → integer iso-line extraction.
 
@@ -94,8 +94,12 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
         Direction field (see :func:`components.parametrize.direction_field`).
     alignment : float
         Weight of the field's pull towards the principal directions.
-    boundary : {"aligned", "free"}
-        Boundary treatment of the parametrization.
+    boundary : {"snap", "aligned", "free"}
+        ``"snap"`` (default): free-boundary parametrization, then grid vertices near the boundary are snapped onto
+        it and the boundary band relaxed (:func:`components.extract.snap_boundary`): whole quads along the
+        boundary without forcing the field to follow it. ``"aligned"``: boundary stretches follow iso-lines
+        (distorts the cells where the boundary is oblique to the field). ``"free"``: iso-lines end on the boundary
+        (clipped cells).
     constraint_faces : (c,) int, optional
         Faces of the (triangulated) input whose field direction is prescribed.
     constraint_directions : (c, 3) float, optional
@@ -120,7 +124,7 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     target = _check_length(target_length)
     _check_choice(field, FIELDS, "field")
     alignment = _check_nonneg(alignment, "alignment")
-    _check_choice(boundary, BOUNDARY_MODES, "boundary")
+    _check_choice(boundary, BOUNDARY_MODES + ("snap",), "boundary")
     V, F, T, J = _triangle_mesh(mesh, name=name)
     cons = _check_constraints(constraint_faces, constraint_directions, len(T))
     _check_target_against(V, T, target)
@@ -128,10 +132,13 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons)
     timings["field"] = time.perf_counter() - t
     t = time.perf_counter()
-    par = seamless_parametrization(V, T, U, W, target, boundary=boundary)
+    par = seamless_parametrization(V, T, U, W, target, boundary="free" if boundary == "snap" else boundary)
     timings["parametrize"] = time.perf_counter() - t
     t = time.perf_counter()
     ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
+    if boundary == "snap":
+        Vx, Fx, trx, bax, _ = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target)
+        ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax)
     timings["extract"] = time.perf_counter() - t
     warnings = list(par.warnings)
     s = face_sizes(ex.F) if len(ex.F) else np.zeros(0, dtype=np.int64)
@@ -206,7 +213,7 @@ class PQResult(NamedTuple):
 
 
 def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float = 0.1, planarize: bool = True,
-                            field: str = "conjugate", boundary: str = "aligned",
+                            field: str = "conjugate", boundary: str = "snap",
                             constraint_faces: Integers | None = None, constraint_directions: Vectors | None = None,
                             tolerance: float = 1e-4, time_budget: float = 30.0) -> PQResult:
     """Planar-quad panelling of a free-form surface along a conjugate direction field.
@@ -225,7 +232,9 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     field : str
         ``"conjugate"`` (default), ``"smooth"`` (not conjugate, for comparison) or ``"principal"``.
     boundary : str
-        ``"aligned"`` (boundary stretches follow the panel lines: whole quads along the boundary) or ``"free"``.
+        ``"snap"`` (default: panel lines follow the field, grid vertices near the boundary are moved onto it so the
+        boundary row is whole panels), ``"aligned"`` (boundary stretches follow the panel lines; distorts panels
+        where the boundary is oblique to the field) or ``"free"`` (panel lines end on the boundary: clipped cells).
     constraint_faces : Integers | None
         Optional faces (of the triangulated input) whose field direction is prescribed.
     constraint_directions : Vectors | None

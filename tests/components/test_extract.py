@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.extract import extract_quads, iso_segments, quad_mesh_from_parametrization
+from components.extract import extract_quads, iso_segments, quad_mesh_from_parametrization, snap_boundary
 from components.mesh import InputError, MeshError, edge_topology, face_normals, face_sizes, validate_mesh
 from components.parametrize import direction_field, seamless_parametrization
 from components.samples import sample_mesh
@@ -64,6 +64,31 @@ def test_rotated_field_with_free_boundary_clips_cells_at_the_boundary():
     assert euler(ex.V, ex.F) == 1
     err, bmin = on_input_triangles(ex, V, T)
     assert err < 1e-12 and bmin > -1e-9
+
+
+@pytest.mark.parametrize("angle", [8, 25, 40])
+def test_snapped_free_boundary_gives_whole_quads(angle):
+    V, T = plane(n=12, size=6.0)
+    a = np.radians(angle)
+    U, W = constant_field(T, [np.cos(a), np.sin(a), 0], [-np.sin(a), np.cos(a), 0])
+    h = 0.6
+    par = seamless_parametrization(V, T, U, W, target_length=h, boundary="free")
+    ex = quad_mesh_from_parametrization(V, T, par.UV, target_length=h)
+    Vs, Fs, tri, bary, grid = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, h)
+    validate_mesh(Vs, Fs)
+    assert euler(Vs, Fs) == 1
+    assert oriented_like(Vs, Fs, V, T, tri).min() > 0
+    # still a tiling of the square (vertices on the boundary stay on it), with more quads than the clipped mesh
+    area = np.linalg.norm(face_normals(Vs, Fs, unit=False), axis=1).sum()
+    assert area == pytest.approx(36.0, rel=1e-2)
+    assert np.mean(face_sizes(Fs) == 4) > np.mean(face_sizes(ex.F) == 4)
+    assert np.mean(face_sizes(Fs) == 4) >= 0.7  # a small square: 45°-ish staircases keep corner triangles
+    # no short edges left: boundary hits closer than h/2 to a grid vertex were absorbed
+    E = edge_topology(Fs).E
+    L = np.linalg.norm(Vs[E[:, 1]] - Vs[E[:, 0]], axis=1)
+    assert np.mean(np.abs(L / h - 1) <= 0.3) >= 0.85 and L.min() > 0.2 * h
+    P = np.einsum("pk,pkd->pd", bary, V[T[tri]])
+    assert np.abs(P - Vs).max() < 1e-9 and np.all(np.abs(Vs[:, 2]) < 1e-12)
 
 
 def test_annulus_keeps_its_topology_and_quads():
