@@ -603,7 +603,7 @@ def _closest_on_boundary(P: np.ndarray, bc: _BoundaryCurve, chunk: int = 2048):
 
 
 def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: np.ndarray,
-                  grid: np.ndarray, target_length: float, snap: float = 0.5, relax: int = 8):
+                  grid: np.ndarray, target_length: float, snap: float = 0.6, relax: int = 8):
     """Turn the clipped cells along a free boundary into whole quads: snap grid vertices onto the boundary.
 
     A grid vertex joined to boundary hits by short edges (shorter than ``snap · target_length``) absorbs them and
