@@ -220,9 +220,10 @@ def _merge_close(X: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
     pairs = tree.query_pairs(r, output_type="ndarray")
     n = len(X)
     if len(pairs) == 0:
-        return np.arange(n), np.arange(n)
+        return np.arange(n, dtype=np.int64), np.arange(n, dtype=np.int64)
     G = sp.csr_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, lab = connected_components(G, directed=False)
+    lab = lab.astype(np.int64)  # int32 from scipy: pair keys lab * n overflow on large meshes
     rep = np.full(lab.max() + 1, n, dtype=np.int64)
     np.minimum.at(rep, lab, np.arange(n))
     return lab, rep
