@@ -24,6 +24,7 @@ from components.mesh import (
     MeshError,
     boundary_edges,
     boundary_loops,
+    edge_topology,
     face_normals,
     triangulate,
     validate_mesh,
@@ -33,7 +34,8 @@ from components.types import Mesh, Numbers
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BOUNDARY_MODES", "Pulled", "PullResult", "pull_to_surface", "pulled_vertices", "reference_boundary"]
+__all__ = ["BOUNDARY_MODES", "Pulled", "PullResult", "pull_to_surface", "pulled_subdivision", "pulled_vertices",
+           "reference_boundary"]
 
 BOUNDARY_MODES = ("boundary", "surface", "fixed")
 
@@ -173,6 +175,146 @@ def pulled_vertices(V, F, V_ref, T_ref, boundary: str = "boundary", name: str = 
                         "the mesh is too far from the surface there")
     log.debug("pulled %d vertices: max move %.3g, max residual %.3g", len(V), before.max(), after.max())
     return Pulled(X, before, after, bverts.astype(np.int64), flipped, warnings)
+
+
+def _boundary_by_arc_length(Vs, Qs, Vc, V, T):
+    """Boundary vertices of the subdivided net on the surface boundary, spread by arc length between the coarse ones.
+
+    The coarse boundary vertices (the first ``len(Vc)`` indices of the subdivided net) lie on the surface
+    boundary; every span of subdivided boundary vertices between two of them is mapped onto the surface boundary
+    between the same two points in proportion to its own arc length. Closest points would bunch the vertices
+    where the boundary curves strongly (the crease B-spline cuts the corners of the coarse polygon), and collapse
+    panels there. Returns ``(vertices, positions)``, empty when the coarse boundary does not run once around the
+    surface boundary in order (then the caller keeps the closest points).
+    """
+    empty = (np.zeros(0, np.int64), np.zeros((0, 3)))
+    rloops = boundary_loops(T, name="surface")
+    floops = boundary_loops(Qs, name="candidate")
+    if len(rloops) != 1 or len(floops) != 1:
+        return empty
+    P = V[np.r_[rloops[0], rloops[0][0]]]
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    S = np.r_[0.0, np.cumsum(seg)]
+    L = float(S[-1])
+    lp = floops[0]
+    nc = len(Vc)
+    if np.count_nonzero(lp < nc) < 3:
+        return empty
+    idx = PolylineIndex(P[:-1], closed=True, name="surface")
+
+    def anchors(order):
+        pos = np.nonzero(order < nc)[0]
+        q = idx.query(Vc[order[pos]], name="coarse")
+        return pos, S[q.segments] + q.t * seg[q.segments]
+
+    for order in (lp, lp[::-1]):
+        pos, sa = anchors(order)
+        d = np.mod(np.diff(np.r_[sa, sa[0]]), L)
+        if abs(d.sum() - L) < 1e-6 * L and np.all(d > 0):
+            break
+    else:
+        return empty
+    # rotate so the loop starts at an anchor
+    order = np.roll(order, -pos[0])
+    pos = pos - pos[0]
+    seglen = np.linalg.norm(Vs[np.roll(order, -1)] - Vs[order], axis=1)
+    arc = np.r_[0.0, np.cumsum(seglen)]  # arc[i] at order[i]; arc[len] closes the loop
+    ends = np.r_[pos, len(order)]
+    target = np.empty(len(order))
+    for i in range(len(pos)):
+        a, b = ends[i], ends[i + 1]
+        frac = (arc[a:b] - arc[a]) / max(arc[b] - arc[a], 1e-300)
+        target[a:b] = sa[i] + frac * d[i]
+    target = np.mod(target, L)
+    j = np.clip(np.searchsorted(S, target, side="right") - 1, 0, len(seg) - 1)
+    f = np.clip((target - S[j]) / np.maximum(seg[j], 1e-300), 0.0, 1.0)
+    X = (1 - f)[:, None] * P[j] + f[:, None] * P[j + 1]
+    return order.astype(np.int64), X
+
+
+def _harmonic_extension(F, n, fixed, values):
+    """Values ``(n, d)`` that equal ``values`` on ``fixed`` and are harmonic (graph Laplacian) elsewhere."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    E = edge_topology(F).E
+    A = sp.coo_matrix((np.ones(2 * len(E)), (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])), shape=(n, n)).tocsr()
+    Lap = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
+    out = np.zeros((n, values.shape[1]))
+    out[fixed] = values
+    free = np.ones(n, dtype=bool)
+    free[fixed] = False
+    free &= np.asarray(A.sum(axis=1)).ravel() > 0
+    if free.any():
+        rhs = -(Lap[free][:, fixed] @ values)
+        out[free] = splu(Lap[free][:, free].tocsc(), permc_spec="COLAMD").solve(rhs)
+    return out
+
+
+def pulled_subdivision(Vs, Qs, Vc, V_ref, T_ref, name: str = "mesh", reference_name: str = "surface") -> Pulled:
+    """Pull a subdivided net onto a surface, its boundary spread along the surface boundary by arc length.
+
+    The first ``len(Vc)`` vertices of ``(Vs, Qs)`` must be the coarse net's (as :func:`components.subdivide.
+    catmull_clark` numbers them). Boundary vertices between two coarse boundary vertices are placed on the
+    surface boundary between the closest points of those two, in proportion to their arc length along the
+    subdivided boundary; the move of the boundary is carried harmonically into the interior (so the rows next
+    to the boundary follow it instead of being squashed against it); then every interior vertex goes to its
+    closest point on the surface. When the coarse boundary does not run once, in order, around a single surface
+    boundary loop, this is :func:`pulled_vertices` with ``boundary="boundary"``.
+
+    Parameters
+    ----------
+    Vs : (n, 3) array_like of float
+        Subdivided vertices (coarse vertices first).
+    Qs : (m, k) array_like of int
+        Subdivided faces.
+    Vc : (c, 3) array_like of float
+        The coarse net's vertices (boundary ones on, or near, the surface boundary).
+    V_ref : (r, 3) array_like of float
+        Reference surface vertices.
+    T_ref : (t, k) array_like of int
+        Reference faces.
+    name, reference_name : str
+        Names of the inputs in error messages.
+
+    Returns
+    -------
+    Pulled
+        As :func:`pulled_vertices`; ``distances_before`` is the move from ``Vs``.
+
+    Raises
+    ------
+    MeshError
+        Malformed mesh or reference.
+
+    Notes
+    -----
+    Closest points alone bunch boundary vertices where the boundary turns sharply between two coarse vertices
+    (the crease B-spline cuts the coarse polygon's corners) and collapse the panels there; measured on the lobed
+    ``canopy`` sample (O-grid, 2 levels): worst candidate corner 0.8° with closest points, 31° with this pull.
+    """
+    Vs, Qs = validate_mesh(Vs, Qs, name=name, allow_degenerate=True, manifold=False)
+    V_ref, F_ref = validate_mesh(V_ref, T_ref, name=reference_name, allow_degenerate=True, manifold=False)
+    Vc = np.asarray(Vc, dtype=np.float64).reshape(-1, 3)
+    T = F_ref if F_ref.shape[1] == 3 else triangulate(F_ref)[0]
+    bv, bx = _boundary_by_arc_length(Vs, Qs, Vc, V_ref, T)
+    if not len(bv):
+        return pulled_vertices(Vs, Qs, V_ref, T, boundary="boundary", name=name, reference_name=reference_name)
+    moved = Vs + _harmonic_extension(Qs, len(Vs), bv, bx - Vs[bv])
+    res = pulled_vertices(moved, Qs, V_ref, T, boundary="surface", name=name, reference_name=reference_name)
+    X = res.V
+    X[bv] = bx
+    index = TriangleIndex(V_ref, T, name=reference_name)
+    after = index.query(X, name=name).distances
+    before = np.linalg.norm(X - Vs, axis=1)
+    N0 = face_normals(Vs, Qs)
+    N1 = face_normals(X, Qs)
+    flipped = np.nonzero(np.einsum("ij,ij->i", N0, N1) < 0)[0].astype(np.int64)
+    warnings = []
+    if len(flipped):
+        warnings.append(f"{len(flipped)} faces of {name} turned over in the pull (first: face {int(flipped[0])}); "
+                        "the mesh is too far from the surface there")
+    return Pulled(X, before, after, np.sort(bv), flipped, warnings)
 
 
 # ----------------------------------------------------------------------------------------------

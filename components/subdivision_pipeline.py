@@ -4,9 +4,12 @@
 free-form strategy of Liu et al. 2006 on a design surface:
 
 1. the coarse quad-dominant net: the user's (validated: manifold, consistently oriented, no degenerate face) or an
-   automatic one (:func:`components.coarse.coarse_net`, O-grid in the unit-disk map);
+   automatic one (:func:`components.coarse.coarse_net`: along the conjugate direction field, or an O-grid in the
+   unit-disk map, whichever ranks better; see :mod:`components.coarse`);
 2. ``levels`` Catmull-Clark steps with crease boundaries (:func:`components.subdivide.catmull_clark`);
-3. every vertex onto the surface, boundary vertices onto the surface boundary (:func:`components.pull.pulled_vertices`);
+3. boundary vertices onto the surface boundary, spread by arc length between the coarse boundary vertices, the
+   interior following harmonically, then every interior vertex to its closest point on the surface
+   (:func:`components.pull.pulled_subdivision`);
 4. planarization with hard planarity, closeness to the surface, fairness and boundary vertices sliding on the
    surface boundary (:func:`components.planarize.planarize_mesh`).
 
@@ -41,6 +44,7 @@ class SubdivisionPQ(NamedTuple):
     mean_edge: float  # mean edge length of the candidate
     timings: dict
     warnings: list
+    layout: str  # layout of the coarse net ("aligned", "ogrid", "patches", or "given")
 
 
 def _check_int(value, name, lo):
@@ -59,9 +63,10 @@ def _mean_edge(V, F):
 
 
 def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, faces: int = 36,
-                   closeness_weight: float = 1.0, fairness_weight: float = 0.01, tolerance: float = 1e-4,
+                   closeness_weight: float = 15.0, fairness_weight: float = 0.01, tolerance: float = 1e-4,
                    max_iterations: int = 100, time_budget: float = 30.0,
-                   max_faces: int = 2_000_000) -> SubdivisionPQ:
+                   max_faces: int = 2_000_000, layout: str = "auto",
+                   spread_boundary: bool = True) -> SubdivisionPQ:
     """Subdivision strategy on arrays: coarse net → Catmull-Clark → pull → planarize.
 
     Parameters
@@ -71,7 +76,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     T : (t, k) array_like of int
         Design surface faces (triangles or polygons, triangulated internally); a disk for the automatic net.
     coarse : tuple (Vc, Fc), optional
-        The coarse quad-dominant control net; automatic (O-grid in the disk map) when None.
+        The coarse quad-dominant control net; automatic (see ``layout``) when None.
     levels : int
         Catmull-Clark levels (≥ 0).
     planarize : bool
@@ -82,6 +87,11 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
         Passed to :func:`components.planarize.planarize_mesh` (boundary ``"slide"`` on the surface boundary).
     max_faces : int
         Refuse, before any work, when the subdivided net would have more faces.
+    layout : {"auto", "aligned", "ogrid"}
+        Layout of the automatic coarse net (:func:`components.coarse.coarse_net`).
+    spread_boundary : bool
+        Pull with :func:`components.pull.pulled_subdivision` (boundary by arc length between the coarse boundary
+        vertices); False: plain closest points (:func:`components.pull.pulled_vertices`).
 
     Returns
     -------
@@ -101,6 +111,8 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     levels = _check_int(levels, "levels", 0)
     max_faces = _check_int(max_faces, "max_faces", 1)
     faces = _check_int(faces, "faces", 4)
+    if not isinstance(layout, str) or layout not in ("auto", "aligned", "ogrid"):
+        raise InputError("layout", f"must be one of auto, aligned, ogrid; got {layout!r}")
     V, F = validate_mesh(V, T, name="surface", manifold=True)
     T = F if F.shape[1] == 3 else triangulate(F)[0]
     if coarse is not None:
@@ -113,32 +125,39 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
 
         _check_surface_disk((V, T))
         n, k = _ogrid_size(faces)
-        total = (n * n + 4 * n * k) * 4 ** levels
+        # the aligned net's face count is known only after the field pipeline: bound it by 1.5 × the target
+        total = max(n * n + 4 * n * k, math.ceil(1.5 * faces)) * 4 ** levels
     if total > max_faces:
         raise InputError("levels", f"{levels} levels would make {total:,} faces, more than the limit of "
                          f"{max_faces:,} (max_faces); use fewer levels or a coarser net")
     # ---- heavy work
     from components.coarse import coarse_net
     from components.planarize import face_planarity, planarize_mesh
-    from components.pull import pulled_vertices
+    from components.pull import pulled_subdivision, pulled_vertices
     from components.subdivide import catmull_clark
 
     timings: dict = {}
     warnings: list[str] = []
+    used_layout = "given"
     t = time.perf_counter()
     if coarse is None:
-        net = coarse_net(V, T, faces=faces, layout="ogrid", levels=levels)
+        net = coarse_net(V, T, faces=faces, layout=layout, levels=levels)
         Vc, Fc = net.V, net.Q
+        used_layout = net.layout
         warnings += net.warnings
     timings["coarse"] = time.perf_counter() - t
     t = time.perf_counter()
     Vs, Qs, _ = catmull_clark(Vc, Fc, levels=levels, boundary="crease", max_faces=max_faces, name="coarse")
     timings["subdivide"] = time.perf_counter() - t
     t = time.perf_counter()
-    pulled = pulled_vertices(Vs, Qs, V, T, boundary="boundary", name="candidate", reference_name="surface")
-    timings["pull"] = time.perf_counter() - t
+    if spread_boundary:
+        pulled = pulled_subdivision(Vs, Qs, Vc, V, T, name="candidate", reference_name="surface")
+    else:
+        pulled = pulled_vertices(Vs, Qs, V, T, boundary="boundary", name="candidate", reference_name="surface")
     warnings += pulled.warnings
     Xc = pulled.V
+    cand_dist = pulled.distances_after
+    timings["pull"] = time.perf_counter() - t
     cand_pl = face_planarity(Xc, Qs)
     mean_edge = _mean_edge(Xc, Qs)
     res = None
@@ -149,7 +168,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
                              max_iterations=max_iterations, time_budget=time_budget, mesh_name="candidate")
         timings["planarize"] = time.perf_counter() - t
         warnings += list(res.warnings)
-    return SubdivisionPQ((Vc, Fc), (Xc, Qs), cand_pl, pulled.distances_after, res, mean_edge, timings, warnings)
+    return SubdivisionPQ((Vc, Fc), (Xc, Qs), cand_pl, cand_dist, res, mean_edge, timings, warnings, used_layout)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -176,9 +195,9 @@ class SubdivisionPQResult(NamedTuple):
 
 
 def pq_from_subdivision(surface: Mesh, coarse: Mesh | None = None, levels: int = 2, planarize: bool = True,
-                        faces: int = 36, closeness_weight: float = 1.0, fairness_weight: float = 0.01,
+                        faces: int = 36, closeness_weight: float = 15.0, fairness_weight: float = 0.01,
                         tolerance: float = 1e-4, max_iterations: int = 100, time_budget: float = 30.0,
-                        max_faces: int = 2000000) -> SubdivisionPQResult:
+                        max_faces: int = 2000000, layout: str = "auto") -> SubdivisionPQResult:
     """Planar-quad mesh by subdivision: coarse net, Catmull-Clark, pull onto the surface, planarize.
 
     Parameters
@@ -186,8 +205,8 @@ def pq_from_subdivision(surface: Mesh, coarse: Mesh | None = None, levels: int =
     surface : Mesh
         The design surface as a triangle (or polygon) mesh; a topological disk when the coarse net is automatic.
     coarse : Mesh | None
-        The coarse quad-dominant control net (consistently oriented, manifold); automatic when absent (an O-grid
-        laid out in the surface's disk map).
+        The coarse quad-dominant control net (consistently oriented, manifold); automatic when absent (see
+        layout).
     levels : int
         Catmull-Clark levels; each multiplies the face count by 4.
     planarize : bool
@@ -196,7 +215,8 @@ def pq_from_subdivision(surface: Mesh, coarse: Mesh | None = None, levels: int =
     faces : int
         Target face count of the automatic coarse net.
     closeness_weight : float
-        Weight of closeness to the surface in the planarization.
+        Weight of closeness to the surface in the planarization (15 keeps the mean closeness within 2% of the
+        mean edge on the sample surfaces and inspired_mesh).
     fairness_weight : float
         Weight of fairness (second differences along mesh polylines) in the planarization.
     tolerance : float
@@ -207,6 +227,9 @@ def pq_from_subdivision(surface: Mesh, coarse: Mesh | None = None, levels: int =
         Seconds the planarization may take.
     max_faces : int
         Largest face count allowed after subdivision; larger requests are refused before any work.
+    layout : str
+        Automatic coarse net: "aligned" (along the conjugate direction field), "ogrid" (block and rings in the disk
+        map) or "auto" (the better ranked of the two; the O-grid with a warning if the field pipeline fails).
 
     Returns
     -------
@@ -254,8 +277,10 @@ def pq_from_subdivision(surface: Mesh, coarse: Mesh | None = None, levels: int =
     The subdivision strategy of Liu, Pottmann, Wallner, Yang & Wang, "Geometric modeling with conical meshes and
     developable surfaces", SIGGRAPH 2006: Catmull & Clark 1978 with crease boundaries, exact closest points, then
     guided-projection planarization (Tang et al. 2014). The planarization can only stay close to the surface when
-    the net's two families of lines are close to conjugate directions of the surface; where they are not, expect
-    it to stall above the tolerance or to leave the surface (see the warnings).
+    the net's two families of lines are close to conjugate directions of the surface, hence the automatic net
+    along the conjugate field where it ranks better; elsewhere the closeness weight holds the planarized mesh to
+    the surface (measured, faces 36, 2 levels: max planarity < 1e-4 with mean closeness 0.2–1.7% of the mean
+    edge on dome, saddle, wave, canopy and inspired_mesh).
 
     Example
     -------
@@ -270,7 +295,7 @@ def pq_from_subdivision(surface: Mesh, coarse: Mesh | None = None, levels: int =
     out = subdivision_pq(surface[0], surface[1], coarse=coarse, levels=levels, planarize=bool(planarize),
                          faces=faces, closeness_weight=closeness_weight, fairness_weight=fairness_weight,
                          tolerance=tolerance, max_iterations=max_iterations, time_budget=time_budget,
-                         max_faces=max_faces)
+                         max_faces=max_faces, layout=layout)
     Xc, Q = out.candidate
     cp = out.candidate_planarity
     cd = out.candidate_distance

@@ -50,7 +50,7 @@ def _check_net(V, T, Vc, Qc):
 @pytest.mark.parametrize("name", _surfaces())
 def test_ogrid_net_is_valid(name):
     V, T = _surface(name)
-    res = coarse_quad_mesh((V, T), faces=36)
+    res = coarse_quad_mesh((V, T), faces=36, layout="ogrid")
     Vc, Qc = res.coarse
     assert res.layout == "ogrid"
     assert 20 <= res.face_count <= 60
@@ -71,6 +71,40 @@ def test_patches_around_suggested_singularity(name, valence):
     p = Vc[res.irregular_vertices[0]]
     assert np.linalg.norm(p - s.singularities[0]) < 0.25 * np.linalg.norm(V.max(0) - V.min(0))
     _check_net(V, T, Vc, Qc)
+
+
+@pytest.mark.parametrize("name", ["saddle", "inspired"])
+def test_aligned_net_is_valid_and_more_conjugate(name):
+    V, T = _surface(name)
+    res = coarse_quad_mesh((V, T), faces=36, layout="aligned")
+    assert res.layout == "aligned"
+    assert 20 <= res.face_count <= 60
+    _check_net(V, T, *res.coarse)
+    if name == "saddle":  # along the conjugate field the subdivided net is flatter than the O-grid's
+        assert res.predicted_planarity < 0.8 * coarse_quad_mesh((V, T), faces=36, layout="ogrid").predicted_planarity
+
+
+def test_auto_falls_back_to_the_ogrid_with_a_warning(monkeypatch):
+    import components.coarse as coarse_mod
+
+    def fails(*a, **k):
+        raise InputError("surface", "no field")
+
+    monkeypatch.setattr(coarse_mod, "aligned_layout", fails)
+    V, T = _surface("dome")
+    res = coarse_quad_mesh((V, T), faces=36)
+    assert res.layout == "ogrid"
+    assert any("O-grid instead" in w for w in res.warnings)
+    with pytest.raises(InputError, match="layout"):
+        coarse_quad_mesh((V, T), faces=36, layout="aligned")
+
+
+@pytest.mark.parametrize("name", ["dome", "saddle"])
+def test_auto_picks_a_valid_net(name):
+    V, T = _surface(name)
+    res = coarse_quad_mesh((V, T), faces=36)
+    assert res.layout in ("aligned", "ogrid")
+    _check_net(V, T, *res.coarse)
 
 
 def test_regular_patch_layout_and_face_target():

@@ -204,3 +204,43 @@ def test_bad_inputs(nonmanifold_fan):
     Tb = np.array([[0, 1, 2], [0, 3, 4]])
     with pytest.raises(MeshError, match=r"^surface: "):
         pulled_vertices(V, Q, Vb, Tb)
+
+
+def test_pulled_subdivision_spreads_the_boundary_and_keeps_panels_open():
+    # lobed canopy boundary: closest points collapse the boundary panels (0.8° corner measured), the arc-length
+    # spread with the harmonic interior follow-up keeps them open
+    from components.coarse import coarse_net
+    from components.planarize_geometry import corner_angles
+    from components.proximity import PolylineIndex, TriangleIndex
+    from components.pull import pulled_subdivision
+    from components.samples import sample_mesh
+
+    V, T, _ = sample_mesh("canopy", 20)
+    net = coarse_net(V, T, faces=36, layout="ogrid")
+    Vs, Qs, _ = catmull_clark(net.V, net.Q, levels=2)
+    res = pulled_subdivision(Vs, Qs, net.V, V, T)
+    diag = bounding_box_diagonal(V)
+    assert TriangleIndex(V, T).query(res.V).distances.max() <= 1e-9 * diag
+    bv = boundary_loops(Qs)[0]
+    assert np.array_equal(np.sort(bv), res.boundary_vertices)
+    assert PolylineIndex(V[boundary_loops(T)[0]], closed=True).query(res.V[bv]).distances.max() <= 1e-9 * diag
+    # coarse boundary vertices stay where they were
+    cb = bv[bv < len(net.V)]
+    assert np.abs(res.V[cb] - net.V[cb]).max() <= 1e-9 * diag
+    worst = np.degrees(corner_angles(res.V, Qs)).min()
+    plain = pulled_vertices(Vs, Qs, V, T)
+    assert worst > 20 and worst > np.degrees(corner_angles(plain.V, Qs)).min()
+    assert len(res.flipped_faces) == 0
+
+
+def test_pulled_subdivision_falls_back_without_a_boundary_order():
+    V, T = _hypar_reference(10)
+    Vq, Q = quad_grid(2, 2, 2.0, 2.0)
+    Vq[:, :2] -= 1.0
+    Vs, Qs, _ = catmull_clark(Vq, Q, levels=1)
+    from components.pull import pulled_subdivision
+
+    # coarse vertices given in an unrelated place: no ordered anchors -> plain closest points
+    res = pulled_subdivision(Vs, Qs, Vq[::-1] * 0.0, V, T)
+    ref = pulled_vertices(Vs, Qs, V, T)
+    assert np.allclose(res.V, ref.V)
