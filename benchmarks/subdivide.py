@@ -16,6 +16,10 @@ Tables printed:
 3. ``pulled_vertices`` (exact closest points via ``components.proximity``) of subdivided candidates onto
    ``meshes/libigl/inspired_mesh.obj``, beside ``igl.point_mesh_squared_distance`` (AABB tree) on the same query
    points: time and the largest difference between the two distances.
+4. The whole strategy (``subdivision_pq``, 36 coarse faces, 2 levels) on the four sample surfaces and
+   inspired_mesh, per coarse layout, against issue 8's targets (candidate on the surface ≤ 1e-9 of the diagonal,
+   max planarity ≤ 1e-4, mean closeness ≤ 2% of the mean edge), with libigl's ``planarize_quad_mesh`` on the
+   same candidate (no closeness term; 50 iterations) for reference.
 """
 from __future__ import annotations
 
@@ -148,6 +152,50 @@ def table_pull(quick: bool):
               f"{t_ours / t_igl:6.2f} {d:10.2e} {res.distances_after.max() / diag:15.2e}")
 
 
+def table_strategy(quick: bool):
+    import igl
+
+    from components.mesh import bounding_box_diagonal
+    from components.planarize import face_planarity
+    from components.proximity import TriangleIndex
+    from components.samples import sample_mesh
+    from components.subdivision_pipeline import subdivision_pq
+
+    print("\n4. subdivision strategy (36 coarse faces, 2 levels), issue 8 targets: dist ≤ 1e-9·diag, "
+          "planarity ≤ 1e-4, closeness ≤ 2% edge")
+    print(f"{'surface':9s} {'layout':8s} {'quads':>6s} {'dist/diag':>9s} {'pl before':>9s} {'pl after':>9s} "
+          f"{'close %':>7s} {'worst°':>6s} {'ncv':>4s} {'it':>3s} {'s':>5s}  {'igl pl':>8s} {'igl close %':>11s} "
+          f"{'igl s':>6s}  stop")
+    names = ["dome", "saddle", "wave", "canopy"]
+    if (SHARED / "libigl" / "inspired_mesh.obj").exists():
+        names.append("inspired")
+    for name in names:
+        if name == "inspired":
+            V, T = read_mesh(SHARED / "libigl" / "inspired_mesh.obj")
+        else:
+            V, T, _ = sample_mesh(name, 20)
+        diag = bounding_box_diagonal(V)
+        for layout in ("auto",) if quick else ("auto", "ogrid", "aligned"):
+            t = time.perf_counter()
+            try:
+                r = subdivision_pq(V, T, layout=layout)
+            except ValueError as exc:
+                print(f"{name:9s} {layout:8s} failed: {exc}")
+                continue
+            dt = time.perf_counter() - t
+            p = r.planarized
+            X, Q = r.candidate
+            t = time.perf_counter()
+            Y = igl.planarize_quad_mesh(X, Q, 50, 1e-4)
+            ti = time.perf_counter() - t
+            ipl = face_planarity(Y, Q).max()
+            icl = TriangleIndex(V, T).query(Y).distances.mean() / r.mean_edge
+            print(f"{name:9s} {r.layout:8s} {len(Q):6d} {r.candidate_distance.max() / diag:9.1e} "
+                  f"{r.candidate_planarity.max():9.2e} {p.max_planarity:9.2e} {100 * p.mean_closeness / r.mean_edge:7.2f} "
+                  f"{p.worst_corner_angle:6.1f} {p.nonconvex_faces:4d} {p.iterations:3d} {dt:5.1f}  {ipl:8.2e} "
+                  f"{100 * icl:11.2f} {ti:6.2f}  {p.stop_reason}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="smaller cases only")
@@ -155,6 +203,7 @@ def main():
     table_subdivision(args.quick)
     table_compas()
     table_pull(args.quick)
+    table_strategy(args.quick)
 
 
 if __name__ == "__main__":
