@@ -15,8 +15,10 @@ the feasibility step ``Δf`` (the minimum-norm correction in the metric) and the
 step projected on the linearized constraints). Phases: *restore* (``Δf`` steps with backtracking until the
 tolerance is met: planarity converges quadratically), *optimize* (``Δf + tΔo`` while planarity stays within 30 ×
 the tolerance and the objective decreases: this walks along the planar meshes toward the smallest displacement /
-closest fit / fairest net), *polish* (``Δf`` steps back below the tolerance). Faces above ``relax ×`` the tolerance
-are driven to that value, not to 0, so a loose tolerance costs little displacement.
+closest fit / fairest net; a step is only taken while the quadratic model, solved with the previous iteration's
+factorization, promises at least 1 % of the objective and as much as moving every vertex 1 % of an edge),
+*polish* (``Δf`` steps back below the tolerance). Faces above ``relax ×`` the tolerance are driven to that value,
+not to 0, so a loose tolerance costs little displacement.
 
 Panel health: the signed turn of every corner (sine of the interior angle, negative at a reflex corner) may not fall
 below half of the quads' worst input value (nor below half of its own): corners that a trial step would push below
@@ -51,6 +53,7 @@ from components.mesh import (
     validate_mesh,
 )
 from components.planarize_geometry import (
+    FaceFrames,
     LoopIndex,
     corner_angles,
     corner_turns,
@@ -85,6 +88,7 @@ _KAPPA = 30.0  # optimize phase: planarity may rise to κ × tolerance while the
 _OPT_ITERATIONS = 20  # optimize phase: iteration cap
 _OPT_STEP = 1e-3  # optimize phase ends when the optimality step moves no vertex more than this (mean edges)
 _OPT_DECREASE = 0.01  # optimize phase ends when an iteration lowers the soft objective by less than this fraction
+_OPT_MIN_MOVE = 0.01  # ... or promises less than moving every vertex this far (mean edges) would (½ d² each)
 _TRUST = 1.0  # no vertex moves more than this (mean edges) in one iteration
 _GUARD_ATTEMPTS = 6  # re-solves per iteration that add corner-guard rows
 _BACKTRACKS = 10  # step halvings per solve
@@ -180,8 +184,7 @@ def _pseudo_quads(F, sizes):
     return np.concatenate(parts).astype(np.int64) if parts else np.zeros((0, 4), np.int64)
 
 
-def _vertex_normals(X, F, corners):
-    N = face_normals(X, F, unit=False)
+def _vertex_normals(X, corners, N):
     VN = np.zeros_like(X)
     np.add.at(VN, corners.v, N[corners.face])
     L = np.linalg.norm(VN, axis=1, keepdims=True)
@@ -222,11 +225,27 @@ def _factor_spd(S):
         return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 
-def _block_matrix(blocks, idx, n):
-    """Sparse ``(3n, 3n)`` matrix with the ``3 × 3`` blocks ``blocks[i]`` on the diagonal at vertices ``idx[i]``."""
-    r = (3 * idx[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
-    c = (3 * idx[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)
-    return sp.csr_matrix((blocks.ravel(), (r.ravel(), c.ravel())), shape=(3 * n, 3 * n))
+def _stack_rows(blocks, ncols):
+    """:func:`_stack` for blocks whose triplets come row by row (rows ascending) and vertex by vertex (three
+    consecutive columns ``3v, 3v+1, 3v+2``), as the hard rows do: the CSR matrix is built directly, unweighted."""
+    counts, vals, cols, rr = [], [], [], []
+    for blk in blocks:
+        q = len(blk.r)
+        counts.append(np.bincount(blk.rows, minlength=q) if q else np.zeros(0, np.int64))
+        vals.append(blk.vals)
+        cols.append(blk.cols)
+        rr.append(blk.r)
+    indptr = np.concatenate([[0], np.cumsum(np.concatenate(counts))])
+    J = sp.csr_matrix((np.concatenate(vals), np.concatenate(cols), indptr), shape=(len(indptr) - 1, ncols))
+    return J, np.concatenate(rr)
+
+
+def _times_blocks(J, Gb):
+    """``J G`` for ``J`` from :func:`_stack_rows` and ``G`` block diagonal (``Gb (n, 3, 3)``): same sparsity."""
+    v3 = J.data.reshape(-1, 3)
+    vert = J.indices[::3] // 3
+    vals = np.einsum("ki,kij->kj", v3, Gb[vert]).ravel()
+    return sp.csr_matrix((vals, J.indices, J.indptr), shape=J.shape)
 
 
 class _State(NamedTuple):
@@ -401,7 +420,9 @@ def planarize_mesh(
         XR = None
         ref_loops = None  # the mesh's own loops, below
         ref_bnd_X = X0
-    N0 = _vertex_normals(X0, F, corners)
+    frames = FaceFrames(F, corners)
+    area0 = frames.normals(X0, unit=False)
+    N0 = _vertex_normals(X0, corners, area0)
 
     # ------------------------------------------------------------------ variables: fixed / sliding / free
     fixed = np.zeros(n, dtype=bool)
@@ -508,10 +529,10 @@ def planarize_mesh(
 
     # ------------------------------------------------------------------ panel health
     quad_like = sizes >= 4
-    turn_in, angle_in = corner_turns(X0, corners, face_normals(X0, F))
+    turn_in, angle_in = corner_turns(X0, corners, frames.normals(X0))
     ncv_in_face = np.zeros(len(F), dtype=bool)
-    np.logical_or.at(ncv_in_face, corners.face, turn_in <= 0)
-    ncv_in_face |= np.linalg.norm(face_normals(X0, F, unit=False), axis=1) == 0
+    ncv_in_face[corners.face[turn_in <= 0]] = True
+    ncv_in_face |= ~np.any(area0 != 0.0, axis=1)
     guarded = quad_like[corners.face] & ~ncv_in_face[corners.face]  # corners the guard watches
     n_nonconvex_in = int(ncv_in_face[quad_like].sum())
     # bounds from the quads' worst corner (n-gons have natural corners near 180°): a corner may not fall below half
@@ -552,7 +573,7 @@ def planarize_mesh(
                 sc = max(sc, float(pl[ngons].max()) / tol)
         if conical_on:
             sc = max(sc, float(np.abs(goals.conical_residual(Xc, corners, stars)).max()) / CONICAL_TOLERANCE)
-        turn, ang = corner_turns(Xc, corners, face_normals(Xc, F))
+        turn, ang = corner_turns(Xc, corners, frames.normals(Xc))
         bad = turn <= 0
         ncv = np.zeros(len(F), dtype=bool)
         ncv[corners.face[bad & guarded]] = True
@@ -624,22 +645,18 @@ def planarize_mesh(
         return g, H, f
 
     def inverse_metric(H, tang):
-        """``G = P (Pᵀ H P)⁻¹ Pᵀ``: free vertices move in 3D, sliding ones along their boundary tangent, fixed not."""
-        if not len(free_idx):
-            blocks = []
-        elif alpha > 0:
-            blocks = [np.linalg.inv(H[free_idx])]
-        else:  # diagonal metric
-            blocks = [np.zeros((len(free_idx), 3, 3))]
-            blocks[0][:, [0, 1, 2], [0, 1, 2]] = 1.0 / H[free_idx][:, [0, 1, 2], [0, 1, 2]]
-        idx = [free_idx]
+        """``G = P (Pᵀ H P)⁻¹ Pᵀ`` as ``(n, 3, 3)`` blocks: free vertices move in 3D, sliding ones along their
+        boundary tangent, fixed ones not."""
+        Gb = np.zeros((n, 3, 3))
+        if len(free_idx):
+            if alpha > 0:
+                Gb[free_idx] = np.linalg.inv(H[free_idx])
+            else:  # diagonal metric
+                Gb[free_idx, [[0], [1], [2]], [[0], [1], [2]]] = 1.0 / H[free_idx][:, [0, 1, 2], [0, 1, 2]].T
         if len(slide_idx):
             q = np.einsum("ij,ijk,ik->i", tang, H[slide_idx], tang)
-            blocks.append(tang[:, :, None] * tang[:, None, :] / q[:, None, None])
-            idx.append(slide_idx)
-        if not blocks:
-            return sp.csr_matrix((3 * n, 3 * n))
-        return _block_matrix(np.concatenate(blocks), np.concatenate(idx), n)
+            Gb[slide_idx] = tang[:, :, None] * tang[:, None, :] / q[:, None, None]
+        return Gb
 
     def hard_rows(Xc, guard_sel, Nf):
         """Hard rows ``J Δ = −(r − s)``: planarity (relaxed to ``0.9 ×`` the tolerance where above it), conical
@@ -656,7 +673,7 @@ def planarize_mesh(
             # inequality in effect: rows whose multiplier would hold the turn down are released by the caller)
             turn_now = corner_turns(Xc, corners, Nf)[0][guard_sel]
             blocks.append(goals.turn_block(Xc, corners, guard_sel, Nf, np.maximum(turn_now, sigma_tgt[guard_sel])))
-        J, r = _stack(blocks, 3 * n)
+        J, r = _stack_rows(blocks, 3 * n)
         return J, r, n_guard_from
 
     # ------------------------------------------------------------------ iterate
@@ -684,10 +701,31 @@ def planarize_mesh(
     opt_its = 0
     since_best = 0
     sticky = np.zeros(len(corners.v), dtype=bool)
+    guard_reset = False  # the sticky guard rows were dropped once after a failed step
     feasible_best = None  # (state, soft objective) of the best state that met the tolerance
 
     def f_of(st):
         return soft_terms(st.X, value_only=True)
+
+    def predicted_gain(Xc, soft, last):
+        """Decrease of the soft objective that the next optimize step promises, from the quadratic model at ``Xc``
+        with the previous iteration's factorization (one more solve, no new factor): ``f − m(Δf + Δo)``."""
+        g_, H_, f_ = soft
+        J_, JG_, lu_, Gb_, n_hard = last
+        rr = np.zeros(J_.shape[0])
+        res = goals.planarity_residual(Xc, Q4)
+        tau = relax * tolerance_of(Xc)
+        rr[: len(Q4)] = res - np.where(is_quad_row, np.clip(res, -tau, tau), 0.0)
+        if conical_on:
+            rr[len(Q4): n_hard] = goals.conical_residual(Xc, corners, stars)
+        gf_ = g_.ravel()
+        lam = lu_.solve(JG_ @ gf_ - rr)
+        step = (JG_.T @ lam).reshape(-1, 3) - np.einsum("nij,nj->ni", Gb_, g_)
+        gain = -float(np.einsum("ij,ij->", g_, step)) - 0.5 * float(np.einsum("ni,nij,nj->", step, H_, step))
+        return gain, f_
+
+    soft_cache = None  # (X, soft_terms(X)) of the current state, when the optimize test computed it
+    last_fact = None  # (J, JG, lu, G blocks, hard rows without guards) of the latest accepted step
 
     while not stop_reason:
         if converged:
@@ -696,6 +734,17 @@ def planarize_mesh(
             elif phase != "optimize":
                 stop_reason = "tolerance reached"
                 break
+        if phase == "optimize" and last_fact is not None:
+            soft_cache = (cur.X, soft_terms(cur.X))
+            gain, f_here = predicted_gain(cur.X, soft_cache[1], last_fact)
+            log.debug("   optimize test: predicted gain %.4g of f %.6g (%.3g%%)", gain, f_here,
+                      100 * gain / max(f_here, 1e-300))
+            if gain < _OPT_DECREASE * f_here or gain < 0.5 * _OPT_MIN_MOVE**2 * ndof / 3.0:
+                # the next optimize step promises too little: polish (when needed) and stop
+                phase = "polish"
+                since_best = 0
+                converged = met(cur)
+                continue
         if it >= max_it:
             stop_reason = f"iteration cap ({max_it}) reached"
             break
@@ -703,10 +752,12 @@ def planarize_mesh(
             stop_reason = f"time budget ({budget:g} s) reached"
             break
         X = cur.X
-        g, H, f_cur = soft_terms(X)
-        G = inverse_metric(H, cur.tangents)
+        g, H, f_cur = soft_cache[1] if soft_cache is not None and soft_cache[0] is X else soft_terms(X)
+        soft_cache = None
+        Gb = inverse_metric(H, cur.tangents)
         gf = g.ravel()
-        Nf = face_normals(X, F)
+        Ggf = np.einsum("nij,nj->ni", Gb, g).ravel()
+        Nf = frames.normals(X)
         guard_sel = guarded & ((cur.turn < sigma_act) | sticky)
         optimize = phase == "optimize"
         t = t_opt if optimize else 0.0
@@ -714,7 +765,7 @@ def planarize_mesh(
         for attempt in range(_GUARD_ATTEMPTS):
             sel = np.nonzero(guard_sel)[0]
             J, r, g0 = hard_rows(X, sel, Nf)
-            JG = (J @ G).tocsr()
+            JG = _times_blocks(J, Gb)
             S = (JG @ J.T).tocsc()
             eps = 1e-10 * float(S.diagonal().mean()) + 1e-14
             lu = _factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
@@ -722,7 +773,7 @@ def planarize_mesh(
             df = (JG.T @ lam_f).reshape(-1, 3)
             if optimize:
                 lam_o = lu.solve(JG @ gf)
-                do = (JG.T @ lam_o - G @ gf).reshape(-1, 3)
+                do = (JG.T @ lam_o - Ggf).reshape(-1, 3)
             else:
                 lam_o, do = np.zeros_like(lam_f), np.zeros_like(df)
             if not (np.all(np.isfinite(df)) and np.all(np.isfinite(do))):
@@ -773,11 +824,17 @@ def planarize_mesh(
                 since_best = 0
                 converged = met(cur)
                 continue
+            if sticky.any() and not guard_reset:  # the guard rows kept from earlier steps may be what blocks
+                sticky[:] = False  # this one: retry once with only the corners the current state needs
+                guard_reset = True
+                continue
             stop_reason = ("no step keeps the panels healthy (corner angle / convexity guard)"
                            if best.score > 1.0 else "no further progress")
             break
+        guard_reset = False
         it += 1
         cur = accepted
+        last_fact = (J, JG, lu, Gb, g0)
         pl, cl = measures(cur)
         hist["maxp"].append(float(pl.max()))
         hist["meanp"].append(float(pl.mean()))
@@ -817,15 +874,17 @@ def planarize_mesh(
         d = TriangleIndex(Vr, triangulate(Fr)[0], name="reference").query(Vout).distances
     else:
         d = np.linalg.norm(Vout - V, axis=1)
-    ang = corner_angles(Vout, F)
-    n_ncv = int(nonconvex_faces(Vout, F)[quad_like].sum())
+    ang, ncv_out = frames.shape(Vout)
+    n_ncv = int(ncv_out[quad_like].sum())
     min_angle = float(ang.min()) if len(ang) else math.pi
-    con = float(np.abs(goals.conical_residual(Xb, corners, stars)).max()) if len(stars.center) else 0.0
+    # the conical criterion ω1 − ω2 + ω3 − ω4 from the corner angles of the stars
+    con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
+    max_warp = float(warping_height(Vout, F).max()) if len(F) else 0.0
     if not converged:
         target = f"warping height {atol:g}" if use_abs else f"planarity {tol:g}"
         what = f"max planarity {pl.max():.3g}"
         if use_abs:
-            what = f"max warping height {warping_height(Vout, F).max():.3g}"
+            what = f"max warping height {max_warp:.3g}"
         if conical_on:
             what += f", conical criterion {con:.3g} rad"
         warnings.append(f"tolerance not reached ({stop_reason}): best state has {what} (target {target}); "
@@ -850,7 +909,7 @@ def planarize_mesh(
         stop_reason=stop_reason,
         worst_corner_angle=math.degrees(min_angle),
         nonconvex_faces=n_ncv,
-        max_warping_height=float(warping_height(Vout, F).max()),
+        max_warping_height=max_warp,
         max_conical=con,
         history_max_planarity=np.asarray(hist["maxp"]),
         history_mean_planarity=np.asarray(hist["meanp"]),

@@ -50,13 +50,26 @@ def face_corners(F: np.ndarray) -> Corners:
     return Corners(v, prv, nxt, rows[valid].copy(), np.broadcast_to(cols, (m, k))[valid].copy())
 
 
+def _dot(a, b):
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _cross(a, b):
+    out = np.empty_like(a)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 def corner_angles(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Interior angle (radians, unsigned, in ``[0, π]``) at every corner, in :func:`face_corners` order."""
     C = face_corners(F)
     V = np.asarray(V, dtype=np.float64)
-    a = V[C.prev] - V[C.v]
+    a = V[C.v] - V[C.prev]
     b = V[C.next] - V[C.v]
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+    c = _cross(a, b)
+    return np.arctan2(np.sqrt(_dot(c, c)), -_dot(a, b))
 
 
 def nonconvex_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -69,12 +82,60 @@ def nonconvex_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     F = np.asarray(F, dtype=np.int64)
     C = face_corners(F)
     N = face_normals(V, F, unit=True)
-    turn = np.cross(V[C.v] - V[C.prev], V[C.next] - V[C.v])
-    bad = np.einsum("ij,ij->i", turn, N[C.face]) <= 0.0
+    turn = _cross(V[C.v] - V[C.prev], V[C.next] - V[C.v])
+    bad = _dot(turn, N[C.face]) <= 0.0
     out = np.zeros(len(F), dtype=bool)
-    np.logical_or.at(out, C.face, bad)
-    out |= np.linalg.norm(N, axis=1) == 0.0
+    out[C.face[bad]] = True
+    out |= ~np.any(N != 0.0, axis=1)
     return out
+
+
+class FaceFrames:
+    """Fast per-iteration face normals and corner turns of one mesh (index data built once per solver call).
+
+    All-quad meshes take the Newell normal from the diagonals (``½ (c − a) × (d − b)``, the same vector); other
+    meshes sum the corner cross products face by face.
+    """
+
+    def __init__(self, F: np.ndarray, corners: Corners):
+        self.F = np.asarray(F, dtype=np.int64)
+        self.C = corners
+        self.m = len(self.F)
+        self.all_quads = bool(self.F.shape[1] == 4 and np.all(face_sizes(self.F) == 4))
+
+    def normals(self, X: np.ndarray, unit: bool = True) -> np.ndarray:
+        """Newell normals ``(m, 3)`` (unit, zero for degenerate faces; area vectors when ``unit=False``)."""
+        if self.all_quads:
+            F = self.F
+            N = 0.5 * _cross(X[F[:, 2]] - X[F[:, 0]], X[F[:, 3]] - X[F[:, 1]])
+        else:
+            C = self.C
+            cr = _cross(X[C.v], X[C.next])
+            N = np.empty((self.m, 3))
+            for j in range(3):
+                N[:, j] = 0.5 * np.bincount(C.face, cr[:, j], minlength=self.m)
+        if unit:
+            L = np.sqrt(_dot(N, N))
+            N = N / np.where(L > 0, L, np.inf)[:, None]
+        return N
+
+    def turns(self, X: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`corner_turns` on this mesh."""
+        return corner_turns(X, self.C, N)
+
+    def shape(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unsigned corner angles ``(c,)`` (:func:`corner_angles`) and non-convex faces ``(m,) bool``
+        (:func:`nonconvex_faces`) in one pass."""
+        C = self.C
+        a = X[C.v] - X[C.prev]
+        b = X[C.next] - X[C.v]
+        cr = _cross(a, b)
+        ang = np.arctan2(np.sqrt(_dot(cr, cr)), -_dot(a, b))
+        N = self.normals(X)
+        ncv = np.zeros(self.m, dtype=bool)
+        ncv[C.face[_dot(cr, N[C.face]) <= 0.0]] = True
+        ncv |= ~np.any(N != 0.0, axis=1)
+        return ang, ncv
 
 
 # ----------------------------------------------------------------------------------------------
@@ -115,12 +176,10 @@ def corner_turns(X: np.ndarray, C: Corners, N: np.ndarray) -> tuple[np.ndarray, 
     """
     a = X[C.v] - X[C.prev]
     b = X[C.next] - X[C.v]
-    cr = np.cross(a, b)
-    la = np.linalg.norm(a, axis=1)
-    lb = np.linalg.norm(b, axis=1)
-    den = np.maximum(la * lb, 1e-300)
-    turn = np.einsum("ij,ij->i", cr, N[C.face]) / den
-    angle = np.arctan2(np.linalg.norm(cr, axis=1), -np.einsum("ij,ij->i", a, b))
+    cr = _cross(a, b)
+    den = np.maximum(np.sqrt(_dot(a, a) * _dot(b, b)), 1e-300)
+    turn = _dot(cr, N[C.face]) / den
+    angle = np.arctan2(np.sqrt(_dot(cr, cr)), -_dot(a, b))
     return turn, angle
 
 
