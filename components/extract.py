@@ -691,6 +691,10 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
                 g, v = gs[0], corners[0]
                 lab[v] = g
                 Vc[g], tri[g], bary[g] = Vc[v], tri[v], bary[v]
+        # grid vertices that snapped onto the same boundary point (a convex turn of the outline) become one
+        dl, drep = _merge_close(Vc, 1e-3 * h)
+        if len(drep) < nv:
+            lab = drep[dl[lab]]
         Vc, Fc, tri, bary, grid = _relabel(Vc, Fc, tri, bary, grid, lab)
     if len(Fc):
         Vc, Fc, tri, bary, grid = _close_boundary_corners(Vc, Fc, tri, bary, grid, bc)
