@@ -312,14 +312,24 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     if planarize:
         from components.planarize import planarize_mesh
 
-        res = planarize_mesh(V, F, reference=(Vin, cand.T), tolerance=tol, time_budget=budget, boundary="slide",
-                             mesh_name="candidate")
-        Vp, Fp = res.mesh
-        pmax, pmean = float(res.max_planarity), float(res.mean_planarity)
-        cmean, cmax = float(res.mean_closeness), float(res.max_closeness)
-        warnings += list(res.warnings)
-        if not res.converged:
-            warnings.append(f"planarization stopped before reaching {tol:g}: {res.stop_reason}")
+        try:
+            res = planarize_mesh(V, F, reference=(Vin, cand.T), tolerance=tol, time_budget=budget,
+                                 boundary="slide", mesh_name="candidate")
+        except (RuntimeError, np.linalg.LinAlgError) as exc:  # a solver failure must not lose the candidate
+            log.warning("planarization failed on the candidate: %s", exc)
+            res = None
+            warnings.append(f"planarization failed ({exc}); the candidate is returned unplanarized")
+        if res is not None:
+            Vp, Fp = res.mesh
+            pmax, pmean = float(res.max_planarity), float(res.mean_planarity)
+            cmean, cmax = float(res.mean_closeness), float(res.max_closeness)
+            warnings += list(res.warnings)
+            if not res.converged:
+                warnings.append(f"planarization stopped before reaching {tol:g}: {res.stop_reason}")
+        else:
+            Vp, Fp = V, F
+            pmax, pmean = q.max_planarity, q.mean_planarity
+            cmean = cmax = 0.0
     else:
         Vp, Fp = V, F
         pmax, pmean = q.max_planarity, q.mean_planarity
