@@ -51,6 +51,7 @@ __all__ = [
 ]
 
 UMBILIC_ONLY = 0.9  # refuse surfaces whose umbilic area share is above this
+EXTEND_RATIO = 0.25  # separation-stopped line ends continue until a quarter panel from the next line
 
 
 class PrincipalField(NamedTuple):
@@ -157,6 +158,10 @@ def _tracer_options(tracer, V, T, fld, h) -> dict:
         out["seeds"] = cen[i][None, :]
     if "min_length" in params:
         out["min_length"] = 0.5 * h
+    if "labelled" in params:  # PD1/PD2 are ordered by curvature: a global labelling, no family swaps
+        out["labelled"] = True
+    if "extend_ratio" in params:  # line ends stopped by the separation test run on to a quarter panel
+        out["extend_ratio"] = EXTEND_RATIO
     return out
 
 

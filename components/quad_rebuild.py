@@ -543,6 +543,9 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     eps_b = 1e-6 * h_uv
     extended = 0
     for L in fam:
+        # an extension may not run along another line of its family (closer than a quarter panel)
+        own_id = np.concatenate([np.full(len(q), i) for i, q in enumerate(L)]) if L else np.zeros(0, np.int64)
+        tree = cKDTree(np.concatenate(L)) if L else None
         for i, q in enumerate(L):
             for end in (0, 1):
                 pts = q if end == 1 else q[::-1]
@@ -561,6 +564,9 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
                 t = bnd.ray(pts[-1], r)
                 if t <= gap * h_uv:
                     ext = _resample(np.vstack([pts[-1], pts[-1] + t * r]), 0.25 * h_uv)[1:]
+                    hits = tree.query_ball_point(ext, 0.25 * h_uv)
+                    if any(own_id[j] != i for hs in hits for j in hs):
+                        continue
                     pts = np.vstack([pts, ext])
                     extended += 1
                 q = pts if end == 1 else pts[::-1]
@@ -697,6 +703,10 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
             dropped += 1
             continue
         faces.append(cyc)
+    faces, nsplit = _split_hexagons(faces, nuv)
+    if nsplit:
+        warnings.append(f"{nsplit} hexagon(s) between two facing line ends (T-junctions) were split into two quads "
+                        "(the missing piece of line restored straight in the plane)")
     if big:
         warnings.append(f"{big} cell(s) with more than {max_face_size} corners (holes in the network, e.g. skipped "
                         "umbilic regions or stopped lines) were left open")
@@ -727,6 +737,43 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
         warnings.append(f"{trimmed} line end(s) stopped inside the surface more than {gap:g} panel size(s) from the "
                         "boundary; they were trimmed back to their last crossing (T-junctions)")
     return Rebuild(Xq, F, Uq, kq, qf, extended, trimmed, dropped, warnings)
+
+
+def _split_hexagons(faces, nuv, flat: float = 150.0):
+    """Split every hexagon whose two opposite corners are flat (interior angle above ``flat`` degrees in the
+    plane: the nodes where a line stopped on each side of the cell) into two quads along the diagonal joining them.
+
+    Such a hexagon is a line interrupted inside one cell (two facing T-junctions); the diagonal restores the line.
+    Returns the new faces and the number of split hexagons.
+    """
+    out, n = [], 0
+    cos_flat = math.cos(math.radians(180.0 - flat))
+    for f in faces:
+        if len(f) != 6:
+            out.append(f)
+            continue
+        P = nuv[f]
+        a = P - np.roll(P, 1, axis=0)
+        b = np.roll(P, -1, axis=0) - P
+        na = np.linalg.norm(a, axis=1)
+        nb = np.linalg.norm(b, axis=1)
+        c = np.einsum("ij,ij->i", a, b) / np.maximum(na * nb, 1e-300)
+        left = _cross2(a, b) >= 0  # counter-clockwise faces: a left turn is a convex corner
+        flatness = np.where(left, c, 2.0 - c)  # > cos_flat: nearly straight (or reflex)
+        best = None
+        for i in range(3):
+            if flatness[i] > cos_flat and flatness[i + 3] > cos_flat:
+                score = min(flatness[i], flatness[i + 3])
+                if best is None or score > best[0]:
+                    best = (score, i)
+        if best is None:
+            out.append(f)
+            continue
+        i = best[1]
+        out.append([f[i], f[i + 1], f[i + 2], f[i + 3]])
+        out.append([f[i + 3], f[(i + 4) % 6], f[(i + 5) % 6], f[i]])
+        n += 1
+    return out, n
 
 
 def _trim_boundary_cells(faces, kind, bedge):

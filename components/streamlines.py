@@ -45,6 +45,12 @@ def _cross(a: complex, b: complex) -> float:
     return a.real * b.imag - a.imag * b.real
 
 
+def _dot3(a, b) -> float:
+    """Cosine of the angle between two 3D vectors (lists)."""
+    n = math.sqrt((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]))
+    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / n if n > 0 else 0.0
+
+
 class _Tracer:
     """Precomputed per-face data and the scalar RK4 walker."""
 
@@ -220,11 +226,14 @@ class _Tracer:
     # -- one streamline
 
     def trace(self, f: int, z: complex, fam: int, sign: float, step: float, max_length: float,
-              stop=None, closing: bool = True, self_distance: float = 0.0):
+              stop=None, closing: bool = True, self_distance: float = 0.0, keep_family: bool = False):
         """Trace from ``(f, z)`` along family ``fam`` in direction ``sign``; returns (points, closed).
 
         ``stop(p, t)`` ends the line at a point; ``self_distance > 0`` ends it when it comes back (parallel) that
-        close to its own earlier points (a spiral instead of a closed loop).
+        close to its own earlier points (a spiral instead of a closed loop). ``keep_family``: the field's labels are
+        global (principal directions ordered by curvature), so the line keeps family ``fam`` in every triangle and
+        stops where that family turns by more than 45° from one triangle to the next (a label jump: an umbilic).
+        The reason of the last stop is left in ``self.stop_reason``.
         """
         own = None
         lag = 0
@@ -233,6 +242,11 @@ class _Tracer:
             lag = int(math.ceil(3.0 * self_distance / step)) + 1
         d = self.fv[f][fam] * sign
         start = self.point3(f, z)
+        t0 = self.vector3(f, d)
+        # a loop closes when the line comes back to its start within the closing radius, running the same way
+        # (with a self distance, within it: a closed curvature line drifts a little after one turn)
+        close_r = max(step, self_distance)
+        min_loop = max(3.0 * step, 4.0 * close_r)
         pts = [start]
         length = 0.0
         closed = False
@@ -240,7 +254,9 @@ class _Tracer:
         h = step
         max_iter = int(8 * max_length / step) + 10 * len(self.Zl) ** 0.5 + 100
         it = 0
+        self.stop_reason = "length"
         if self.near_singularity(f, start):
+            self.stop_reason = "singularity"
             return pts, False
         while length < max_length and it < max_iter:
             it += 1
@@ -271,27 +287,39 @@ class _Tracer:
                 if nxt is None:  # boundary
                     if moved > 1e-9 * step:
                         pts.append(p)
+                    self.stop_reason = "boundary"
                     break
                 f, z, d = nxt
-                fam = self.family_in(f, d)
+                if not keep_family:
+                    fam = self.family_in(f, d)
+                elif fam != self.family_in(f, d):
+                    pts.append(p)
+                    self.stop_reason = "label"
+                    break
                 if stuck > 8:
+                    self.stop_reason = "stuck"
                     break
                 if moved <= 1e-12 * step:
                     continue
             pts.append(p)
             if self.near_singularity(f, p):
+                self.stop_reason = "singularity"
                 break
             if stop is not None and stop(p, self.vector3(f, d)):
+                self.stop_reason = "separation"
                 break
-            if closing and length > 3.0 * step:
+            if closing and length > min_loop:
                 dx, dy, dz = p[0] - start[0], p[1] - start[1], p[2] - start[2]
-                if dx * dx + dy * dy + dz * dz < step * step:
+                if dx * dx + dy * dy + dz * dz < close_r * close_r and (
+                        close_r == step or _dot3(self.vector3(f, d), t0) > 0.94):
                     pts.append(start)
                     closed = True
+                    self.stop_reason = "closed"
                     break
             if own is not None:
                 t3 = self.vector3(f, d)
                 if own.near(p, self_distance, t3):
+                    self.stop_reason = "self"
                     break
                 if len(pts) > lag:
                     own.add_point(pts[-lag - 1], t3)
@@ -483,7 +511,7 @@ class _Grid:
         c = self.cell
         return (math.floor(p[0] / c), math.floor(p[1] / c), math.floor(p[2] / c))
 
-    def add(self, P: np.ndarray):
+    def add(self, P: np.ndarray, owner: int = -1):
         D = np.zeros_like(P)
         D[1:-1] = P[2:] - P[:-2]
         D[0] = P[1] - P[0]
@@ -491,13 +519,14 @@ class _Grid:
         L = np.linalg.norm(D, axis=1, keepdims=True)
         D = np.divide(D, L, out=np.zeros_like(D), where=L > 0)
         for p, t in zip(P.tolist(), D.tolist()):
-            self.cells.setdefault(self.key(p), []).append((p, t))
+            self.cells.setdefault(self.key(p), []).append((p, t, owner))
 
-    def add_point(self, p, t):
-        self.cells.setdefault(self.key(p), []).append((p, t))
+    def add_point(self, p, t, owner: int = -1):
+        self.cells.setdefault(self.key(p), []).append((p, t, owner))
 
-    def near(self, p, r: float, t=None) -> bool:
-        """Is a stored point closer than ``r`` to ``p`` (among those whose tangent is parallel to ``t``)?"""
+    def near(self, p, r: float, t=None, exclude: int = -2) -> bool:
+        """Is a stored point closer than ``r`` to ``p`` (among those whose tangent is parallel to ``t``, not
+        belonging to line ``exclude``)?"""
         kx, ky, kz = self.key(p)
         r2 = r * r
         reach = int(math.ceil(r / self.cell))
@@ -507,7 +536,9 @@ class _Grid:
         for i in range(kx - reach, kx + reach + 1):
             for j in range(ky - reach, ky + reach + 1):
                 for k in range(kz - reach, kz + reach + 1):
-                    for q, tq in self.cells.get((i, j, k), ()):
+                    for q, tq, owner in self.cells.get((i, j, k), ()):
+                        if owner == exclude:
+                            continue
                         dx, dy, dz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
                         if dx * dx + dy * dy + dz * dz < r2:
                             if t is None or abs(t[0] * tq[0] + t[1] * tq[1] + t[2] * tq[2]) > self.parallel:
@@ -518,7 +549,8 @@ class _Grid:
 def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray, family: int = 0,
                               separation: float = 1.0, test_ratio: float = 0.5, step: float | None = None,
                               seeds=None, singularities=None, singularity_radius: float | None = None,
-                              min_length: float = 0.0) -> list[np.ndarray]:
+                              min_length: float = 0.0, labelled: bool = False, extend_ratio: float = 0.0,
+                              diagnostics: dict | None = None) -> list[np.ndarray]:
     """Evenly spaced streamlines of one family at a given separation (Jobard–Lefer seeding on the surface).
 
     Parameters
@@ -548,6 +580,19 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
         Stop radius around singular vertices; default ``max(mean edge, separation / 2)``.
     min_length : float
         Drop lines shorter than this (model units).
+    labelled : bool
+        The labels ``U``/``W`` are global, as for principal directions ordered by curvature (not a combed 4-fold
+        field): every line keeps its family in every triangle, seeds keep the family of their line, and a line
+        stops where its family turns by more than 45° from one triangle to the next (a label jump at an umbilic).
+        Without it a line follows the most aligned direction across edges (families may swap around ±1/4
+        singularities).
+    extend_ratio : float
+        When positive, after the seeding every line end stopped by the separation test is continued until it
+        comes closer than ``extend_ratio · separation`` to another line (or reaches the boundary, a singularity):
+        fewer lines end inside the surface (fewer T-junctions in a network), lines stay evenly seeded. 0: off.
+    diagnostics : dict, optional
+        Filled with ``"end_reasons"``: per returned line, why its start and its end stopped (``"boundary"``,
+        ``"separation"``, ``"singularity"``, ``"self"``, ``"closed"``, ``"stuck"``, ``"length"``, ``"label"``).
 
     Returns
     -------
@@ -579,6 +624,9 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     ratio = _positive(test_ratio, "test_ratio")
     if ratio > 1:
         raise InputError("test_ratio", f"must be in (0, 1], got {test_ratio!r}")
+    if isinstance(extend_ratio, bool) or not isinstance(extend_ratio, (int, float, np.floating, np.integer)) or \
+            not 0 <= float(extend_ratio) <= ratio:
+        raise InputError("extend_ratio", f"must be a number in [0, test_ratio], got {extend_ratio!r}")
     h0 = _mean_edge(V, T)
     step = min(0.25 * sep, 0.5 * h0) if step is None else _positive(step, "step")
     fr = face_frames(V, T)
@@ -593,7 +641,9 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     tr = _Tracer(V, T, U, W, sing, radius)
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     max_length = 4.0 * diag + 10 * sep
-    grid = _Grid(sep, parallel=math.cos(math.radians(20.0)))
+    # a line keeps its distance from lines within 45° of its direction: its own family (the other one is at 90°),
+    # also where lines of one family converge at an angle (into an umbilic)
+    grid = _Grid(sep, parallel=math.cos(math.radians(45.0)))
     d_test = ratio * sep
     lines: list[np.ndarray] = []
     queue: list = []
@@ -618,6 +668,8 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
         taken[tree.query_ball_point(fr.centroid[f], 0.7 * sep)] = True
     cover_pos = 0
     total = 0
+    reasons: list[list[str]] = []  # why each line's start and end stopped
+    line_fam: list[int] = []  # family at each line's seed
 
     def too_close(p, t):
         return grid.near(p, d_test, t)
@@ -638,11 +690,19 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
             continue
         if tr.near_singularity(f, p0):
             continue
-        fwd, closed = tr.trace(f, z, k, 1.0, step, max_length, stop=too_close, self_distance=d_test)
+        fwd, closed = tr.trace(f, z, k, 1.0, step, max_length, stop=too_close, self_distance=d_test,
+                               keep_family=labelled)
+        why = (tr.stop_reason, tr.stop_reason)
         line = fwd
         if not closed:
-            bwd, _ = tr.trace(f, z, k, -1.0, step, max_length, stop=too_close, self_distance=d_test)
-            line = bwd[::-1] + fwd[1:]
+            bwd, bclosed = tr.trace(f, z, k, -1.0, step, max_length, stop=too_close, self_distance=d_test,
+                                    keep_family=labelled)
+            if bclosed:  # the backward half went round the loop alone: it is the whole line
+                line = bwd[::-1]
+                why = ("closed", "closed")
+            else:
+                line = bwd[::-1] + fwd[1:]
+                why = (tr.stop_reason, why[1])
         if len(line) < 2:
             continue
         arr = np.asarray(line)
@@ -650,7 +710,9 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
         if seg.sum() < max(min_length, 1e-12):
             continue
         lines.append(arr)
-        grid.add(arr)
+        reasons.append(list(why))
+        line_fam.append(k)
+        _add_line(grid, arr, len(lines) - 1, 3.0 * d_test)
         total += len(line)
         if total > _MAX_POINTS:
             log.warning("evenly_spaced_streamlines: point budget reached, stopping")
@@ -674,10 +736,71 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
                 if res is not None:
                     wf, wz, wd = res
                     # the seed continues the family of the line it was offset from
-                    queue.append((wf, wz, tr.family_in(wf, wd * (-side))))
+                    queue.append((wf, wz, k if labelled else tr.family_in(wf, wd * (-side))))
             if both:  # the crossing family starts on the line itself
-                queue.append((lf, lz, 1 - tr.family_in(lf, dz)))
+                queue.append((lf, lz, 1 - k if labelled else 1 - tr.family_in(lf, dz)))
+    if extend_ratio > 0 and lines:
+        _extend_ends(tr, lines, reasons, line_fam, grid, extend_ratio * sep, step, max_length, labelled)
+    if diagnostics is not None:
+        diagnostics["end_reasons"] = [tuple(r) for r in reasons]
     return lines
+
+
+def _extend_ends(tr, lines, reasons, line_fam, grid, d_ext, step, max_length, labelled):
+    """Continue every line end stopped by the separation test until it comes within ``d_ext`` of another line
+    (or meets the boundary, a singularity, ...). Updates ``lines``, ``reasons`` and ``grid`` in place."""
+    for i in range(len(lines)):
+        for end in (0, 1):
+            if reasons[i][end] != "separation":
+                continue
+            arr = lines[i]
+            pts = arr if end == 1 else arr[::-1]
+            tan = pts[-1] - pts[max(len(pts) - 3, 0)]
+            if not np.any(tan):
+                continue
+            (lf, lz), = _locate_on_line(tr, pts[-1:])
+            dz = complex(float(tan @ tr.fr.e1[lf]), float(tan @ tr.fr.e2[lf]))
+            if abs(dz) == 0:
+                continue
+            kk = line_fam[i] if labelled else tr.family_in(lf, dz)
+            sgn = 1.0 if (tr.fv[lf][kk] * dz.conjugate()).real >= 0 else -1.0
+
+            def stop(p, t, own=2 * i + end):
+                return grid.near(p, d_ext, t, exclude=own)
+
+            ext, _ = tr.trace(lf, lz, kk, sgn, step, max_length, stop=stop, closing=False, self_distance=d_ext,
+                              keep_family=labelled)
+            reasons[i][end] = "extended:" + tr.stop_reason
+            if len(ext) < 2:
+                continue
+            E = np.asarray(ext[1:])
+            new = np.vstack([pts, E])
+            lines[i] = new if end == 1 else new[::-1]
+            grid.add(np.vstack([pts[-1:], E]), owner=2 * i + end)
+
+
+def _add_line(grid, arr, i, reach):
+    """Add a line to the separation grid; its points within arc length ``reach`` of its start (end) are owned by
+    ``2 i`` (``2 i + 1``) so that an extension of that end ignores them, the others by nobody."""
+    seg = np.linalg.norm(np.diff(arr, axis=0), axis=1)
+    cum = np.r_[0.0, np.cumsum(seg)]
+    own = np.full(len(arr), -1, dtype=np.int64)
+    own[cum >= cum[-1] - reach] = 2 * i + 1
+    own[cum <= reach] = 2 * i
+    for o in np.unique(own).tolist():
+        sel = np.flatnonzero(own == o)
+        a, b = max(sel[0] - 1, 0), min(sel[-1] + 2, len(arr))  # neighbours give the end tangents
+        P = arr[a:b]
+        keep = np.isin(np.arange(a, b), sel)
+        D = np.zeros_like(P)
+        if len(P) > 1:
+            D[1:-1] = P[2:] - P[:-2]
+            D[0] = P[1] - P[0]
+            D[-1] = P[-1] - P[-2]
+        L = np.linalg.norm(D, axis=1, keepdims=True)
+        D = np.divide(D, L, out=np.zeros_like(D), where=L > 0)
+        for p, t in zip(P[keep].tolist(), D[keep].tolist()):
+            grid.add_point(p, t, owner=o)
 
 
 def _locate_on_line(tr: _Tracer, P: np.ndarray):
@@ -778,7 +901,8 @@ def streamlines(mesh: Mesh, family: int = 0, separation: float = 1.0, seeds: Poi
     sing, _ = field_singularities(V, T, U, W)
     warnings: list[str] = []
     if seeds is None:
-        lines = evenly_spaced_streamlines(V, T, U, W, family=fam, separation=sep, singularities=sing)
+        lines = evenly_spaced_streamlines(V, T, U, W, family=fam, separation=sep, singularities=sing,
+                                          labelled=field == "principal")
     else:
         step = min(0.25 * sep, 0.5 * _mean_edge(V, T))
         fams = (0, 1) if fam == 2 else (fam,)

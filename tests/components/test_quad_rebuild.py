@@ -169,6 +169,28 @@ def test_interior_stop_is_trimmed(patch):
     assert rb.trimmed >= 1 and any("trimmed" in w for w in rb.warnings)
 
 
+def test_interrupted_line_is_restored_by_a_hexagon_split(patch):
+    # a meridian with a gap inside one cell: the hexagon between its two facing ends is split into two quads
+    V, T, l1, l2 = patch
+    full = rebuild_from_network(V, T, l1, l2, 0.5)
+    k = len(l1) // 2
+    L = l1[k]
+    # the gap: drop the points of the meridian between two consecutive parallels (a short piece in the middle)
+    z = L[:, 2]
+    zs = np.sort([float(np.median(P[:, 2])) for P in l2])
+    mid = len(zs) // 2
+    lo, hi = zs[mid], zs[mid + 1]
+    a, b = lo + 0.3 * (hi - lo), lo + 0.7 * (hi - lo)
+    inside = (z > min(a, b)) & (z < max(a, b))
+    pieces = [L[: np.argmax(inside)], L[len(L) - np.argmax(inside[::-1]):]]
+    cut = [P for i, P in enumerate(l1) if i != k] + [P for P in pieces if len(P) >= 2]
+    rb = rebuild_from_network(V, T, cut, l2, 0.5)
+    validate_mesh(rb.V, rb.F)
+    assert any("hexagon" in w for w in rb.warnings)
+    assert rb.quad_fraction == full.quad_fraction
+    assert len(rb.F) == len(full.F)
+
+
 def test_bad_inputs(patch):
     V, T, l1, l2 = patch
     with pytest.raises(InputError, match="panel_size"):

@@ -182,3 +182,81 @@ def test_bad_input(nonmanifold_fan):
         streamlines((V, T), field="random")
     with pytest.raises(MeshError, match="mesh"):
         streamlines(nonmanifold_fan)
+
+
+# ----------------------------------------------------------------------------------------------
+# labelled (principal) fields: the mixed wave sample, with closed curvature lines around flat-point umbilics
+
+
+def _wave_principal():
+    from components.curvature_network import principal_field
+
+    V, T, _ = sample_mesh("wave", 40)
+    fld = principal_field(V, T)
+    return V, T, fld
+
+
+def _same_family_crossings(lines):
+    from components.quad_rebuild import network_crossings
+
+    L2 = [L[:, :2] for L in lines]  # a height field: the plan view keeps crossings
+    ia, _, ib, _, _ = network_crossings(L2, L2)
+    return int(np.sum(ia != ib))
+
+
+def test_labelled_lines_keep_their_family_and_loops_close_once():
+    V, T, fld = _wave_principal()
+    seed = V[T].mean(axis=1)[[int(np.argmax(fld.anisotropy))]]
+    for fam, D in ((0, fld.PD1), (1, fld.PD2)):
+        diag = {}
+        lines = evenly_spaced_streamlines(V, T, fld.PD1, fld.PD2, family=fam, separation=2.0, seeds=seed,
+                                          labelled=True, diagnostics=diag)
+        assert len(diag["end_reasons"]) == len(lines)
+        # every segment follows its own family (the labels are global: no swap into the other one)
+        res = closest_points(np.concatenate([0.5 * (L[1:] + L[:-1]) for L in lines]), V, T)
+        seg = np.concatenate([np.diff(L, axis=0) for L in lines])
+        seg /= np.linalg.norm(seg, axis=1, keepdims=True)
+        assert np.mean(np.abs(np.einsum("ij,ij->i", seg, D[res.faces])) > np.cos(np.radians(30))) > 0.97
+        # lines of one family never cross each other
+        assert _same_family_crossings(lines) == 0
+        # a closed curvature line is traced once (no doubled loop): its points are not revisited
+        for L, why in zip(lines, diag["end_reasons"]):
+            if why == ("closed", "closed"):
+                assert np.allclose(L[0], L[-1])
+                d = np.linalg.norm(L[1:-1, None, :] - L[None, 1:-1, :], axis=2)
+                far = np.abs(np.arange(len(L) - 2)[:, None] - np.arange(len(L) - 2)[None, :]) > 20
+                far &= np.minimum.outer(np.arange(len(L) - 2), np.arange(len(L) - 2)) > 5
+                assert d[far].min() > 0.3
+
+
+def test_extension_runs_separation_stops_on():
+    V, T, fld = _wave_principal()
+    counts = {}
+    for ext in (0.0, 0.25):
+        diag = {}
+        lines = evenly_spaced_streamlines(V, T, fld.PD1, fld.PD2, family=0, separation=2.0, labelled=True,
+                                          extend_ratio=ext, diagnostics=diag)
+        ends = [r for pair in diag["end_reasons"] for r in pair]
+        counts[ext] = sum(r == "separation" for r in ends)
+        if ext:
+            assert counts[0.0] == sum(r.startswith("extended:") for r in ends)
+            assert _same_family_crossings(lines) == 0
+            # an extended end stops about a quarter separation from the side of the next line (two ends running
+            # head-on into each other may come closer: the quad rebuild joins them)
+            P = np.concatenate(lines)
+            lid = np.concatenate([np.full(len(L), i) for i, L in enumerate(lines)])
+            pos = np.concatenate([np.arange(len(L)) for L in lines])
+            end_zone = (pos < 4) | (pos >= np.concatenate([np.full(len(L), len(L) - 4) for L in lines]))
+            for i, L in enumerate(lines):
+                if diag["end_reasons"][i][1] != "extended:separation":
+                    continue
+                side = (lid != i) & ~end_zone
+                assert np.linalg.norm(P[side] - L[-1], axis=1).min() > 0.2 * 2.0
+    assert counts[0.0] > 0
+
+
+def test_extend_ratio_is_checked():
+    V, T = _grid_triangles(6, 6, 2.0, 2.0)
+    U, W = _constant_field(T, 0.0)
+    with pytest.raises(InputError, match="extend_ratio"):
+        evenly_spaced_streamlines(V, T, U, W, separation=0.5, test_ratio=0.5, extend_ratio=0.7)
