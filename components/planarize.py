@@ -762,13 +762,18 @@ def planarize_mesh(
         optimize = phase == "optimize"
         t = t_opt if optimize else 0.0
         accepted = None
+        singular = False
         for attempt in range(_GUARD_ATTEMPTS):
             sel = np.nonzero(guard_sel)[0]
             J, r, g0 = hard_rows(X, sel, Nf)
             JG = _times_blocks(J, Gb)
             S = (JG @ J.T).tocsc()
             eps = 1e-10 * float(S.diagonal().mean()) + 1e-14
-            lu = _factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
+            try:
+                lu = _factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
+            except RuntimeError:  # singular even when damped (coincident vertices, collapsed faces)
+                singular = True
+                break
             lam_f = lu.solve(-r)
             df = (JG.T @ lam_f).reshape(-1, 3)
             if optimize:
@@ -818,6 +823,9 @@ def planarize_mesh(
                     beta *= 0.5
             if accepted is not None or not need_resolve:
                 break
+        if singular:
+            stop_reason = "the linear system is singular (coincident vertices or collapsed faces in the mesh)"
+            break
         if accepted is None:
             if optimize:  # no soft progress left within the tolerance band: polish
                 phase = "polish"

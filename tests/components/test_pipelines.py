@@ -131,8 +131,7 @@ def test_dome_planarizes_close_to_the_surface():
 
 
 PLANARIZE_XFAIL = {"wave": "wave candidate (62% edges, 40 inverted parameter triangles, a 12-gon and a 13-gon): the "
-                           "solver stopped at max 1.3e-1 (corner/convexity guard), then raised 'Factor is exactly "
-                           "singular' (planarize.py _factor_spd) after its 334d390 change"}
+                           "solver stops at max 1.3e-1 on a singular system (collapsed corners of the candidate)"}
 
 
 @pytest.mark.parametrize("name", ["saddle", "wave", "canopy"])
