@@ -1,6 +1,7 @@
 """Benchmark: conformal maps (LSCM, spectral, disk/square) beside libigl, and conical face offsets.
 
-Run from the project root:  ``/work/venv/bin/python benchmarks/conformal.py [--quick]``
+Run from the project root:  ``/work/venv/bin/python benchmarks/conformal.py [--quick] [--pipeline]``
+(``--pipeline``: only the curvature-network table).
 
 Prints three tables:
 1. LSCM (two pinned vertices, the same pins for both) and fixed-boundary disk maps: ours vs ``igl.lscm`` /
@@ -194,9 +195,16 @@ def table_curvature_pipeline(quick):
     print("| surface | triangles | panel | quads % | angle err ° | network s | rebuild s | optimize s | total s "
           "| max planarity | max criterion | closeness / edge | offset err / d |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    cases = [("saddle", 60, 2.0), ("dome", 60, 2.0)] + ([] if quick else [("saddle", 110, 1.5), ("dome", 120, 1.5)])
+    names = ("saddle", "dome", "wave", "canopy")
+    cases = [(n, 60, 2.0) for n in names] + ([] if quick else [(n, 120, 1.5) for n in names])
+    if (SHARED / "libigl/inspired_mesh.obj").exists():
+        cases.append(("inspired_mesh", 0, 2.0))
     for name, res, h in cases:
-        V, T, _ = sample_mesh(name, res)
+        if res:
+            V, T, _ = sample_mesh(name, res)
+        else:
+            V, T = read_mesh(SHARED / "libigl/inspired_mesh.obj")
+            T = triangulate(T)[0]
         tm = {}
         r = curvature_pipeline((V, T), h, offset=0.1 * h, tracer=tracer, timings=tm)
         print(f"| {name} | {len(T)} | {h:g} | {100 * r.quad_fraction:.1f} | {r.mean_angle_error:.2f} "
@@ -207,6 +215,9 @@ def table_curvature_pipeline(quick):
 
 if __name__ == "__main__":
     quick = "--quick" in sys.argv
+    if "--pipeline" in sys.argv:  # only the curvature-network table
+        table_curvature_pipeline(quick)
+        sys.exit(0)
     table_maps(quick)
     table_orderings(quick)
     table_offsets(quick)

@@ -10,7 +10,12 @@ second order and their limit is a conical mesh (Liu et al. 2006). This module
    principal directions are undefined there,
 3. traces both families with the project's streamline tracer (:func:`components.streamlines.evenly_spaced_streamlines`,
    RK4 on the surface, evenly spaced seeding at the panel size) on the field ``U = PD1, W = PD2``, the first seed
-   in the most central anisotropic triangle, and
+   in the most central anisotropic triangle. The labels are global (PD1 is the direction of the larger curvature
+   everywhere but at umbilics), so the tracer runs ``labelled``: a line never swaps into the other family (on
+   mixed surfaces such as the wave sample, whose flat-point umbilics carry closed curvature lines around them,
+   swapping mixed both families into one set and left crossings without nodes). Line ends stopped by the
+   Jobard–Lefer separation test (half a panel) are then run on until a quarter panel from the next line
+   (``EXTEND_RATIO``), which removes most interior T-junctions where lines converge, and
 4. **skips** the umbilic regions: every polyline is cut where it enters one, pieces shorter than half a panel are
    dropped. What was done is said in ``warnings``; a surface that is umbilic almost everywhere (a sphere or plane
    patch) is refused with a clear error, since it has no curvature network.

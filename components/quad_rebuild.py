@@ -14,7 +14,9 @@ A curvature-line network (two families of polylines traced on a triangle mesh, s
    boundary ends and boundary corners become nodes, consecutive nodes along a line or along the boundary become
    edges, nodes closer than ``merge`` panel sizes to a boundary node are merged into it, and the faces of the planar
    graph are traced (the edge to the right of the reverse half-edge). Faces with 3 to ``max_face_size`` corners are
-   kept; the outer face and larger cells (holes, e.g. skipped umbilic regions) are dropped.
+   kept; the outer face and larger cells (holes, e.g. skipped umbilic regions) are dropped. A hexagon whose two
+   opposite corners are flat (a line interrupted inside one cell: two facing T-junctions) is split into two quads
+   along the diagonal joining them, which restores the missing piece of line.
 5. **Back to 3D.** Every node is located in the planar triangulation and mapped back with its barycentric
    coordinates: the candidate lies on the input surface.
 
