@@ -259,7 +259,6 @@ def _fit_shape_operators(V, N, U, W, R: sp.csr_matrix, rows: np.ndarray):
     # II R^{-1}
     p11 = L_ * i11
     p12 = L_ * i12 + M_ * i22
-    p21 = M_ * i11
     p22 = M_ * i12 + N_ * i22
     s11 = i11 * p11
     s12 = i11 * p12

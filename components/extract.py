@@ -31,7 +31,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from components.mesh import InputError, MeshError, edge_topology, face_sizes, pad_faces
+from components.mesh import edge_topology, face_sizes, pad_faces
 from components.types import Mesh
 
 log = logging.getLogger(__name__)
@@ -159,7 +159,6 @@ def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
         pb.append(idx[nxt] + 1)
         base += len(seg)
     # boundary edges split at the iso-line hits
-    m = len(T)
     bh = np.nonzero(~twin_mask)[0]
     f = bh // 3
     i0 = bh % 3
@@ -248,7 +247,6 @@ def _faces_from_graph(X, N, a, b, da, db):
     if ne == 0:
         return [], np.zeros(0), []
     tail = np.concatenate([a, b])  # half-edge h (< ne): a -> b; h + ne: b -> a
-    head = np.concatenate([b, a])
     dirs = np.concatenate([da, db])
     ang = _tangent_angles(dirs, N[tail])
     order = np.lexsort((ang, tail))
@@ -344,7 +342,6 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
     UV = np.asarray(UV, dtype=np.float64)
-    m = len(T)
     P = V[T]
     if target_length is None:
         e3 = np.linalg.norm(P[:, 1] - P[:, 0], axis=1)

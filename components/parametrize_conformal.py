@@ -30,7 +30,7 @@ from components.mesh import (
     triangulate,
     validate_mesh,
 )
-from components.types import Mesh, Numbers, Points
+from components.types import Mesh, Points
 
 log = logging.getLogger(__name__)
 

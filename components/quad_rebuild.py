@@ -40,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from components.mesh import InputError, MeshError, boundary_loops, edge_topology, face_sizes, validate_mesh
+from components.mesh import InputError, MeshError, boundary_loops, edge_topology, face_sizes
 
 log = logging.getLogger(__name__)
 
@@ -442,7 +442,6 @@ def _trace_faces(nuv, edges, dirs_out, dirs_in):
     """Faces of a planar graph: cycles of half-edges, each followed by the next one clockwise at its head."""
     ne = len(edges)
     src = np.r_[edges[:, 0], edges[:, 1]]
-    dst = np.r_[edges[:, 1], edges[:, 0]]
     dvec = np.r_[dirs_out, dirs_in]  # direction leaving src
     ang = np.arctan2(dvec[:, 1], dvec[:, 0])
     order = np.lexsort((ang, src))
@@ -644,7 +643,6 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     # ---- 3D positions, merge short boundary edges
     X, _ = uv_to_surface(V, T, UV, nuv)
     elen = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
-    isb = kind > 0
     isx = kind == NODE_CROSSING
     isend = kind == NODE_BOUNDARY
     short = (elen < merge * h) & ((isx[edges[:, 0]] & isend[edges[:, 1]]) | (isend[edges[:, 0]] & isx[edges[:, 1]]))

@@ -40,7 +40,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from components.mesh import InputError, MeshError, boundary_loops, edge_topology, triangulate, validate_mesh
+from components.mesh import InputError, boundary_loops, edge_topology, triangulate, validate_mesh
 from components.types import Integers, Mesh, Numbers, Points
 
 log = logging.getLogger(__name__)

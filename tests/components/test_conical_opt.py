@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from components.conical import conical_check, face_offset
-from components.conical import conical_check
 from components.conical_opt import conical_optimize, optimize_conical
-from components.mesh import InputError, MeshError, boundary_vertex_mask, quad_grid, read_mesh
+from components.mesh import InputError, MeshError, quad_grid, read_mesh
 from components.planarize import face_planarity, planarize_mesh
 from tests.components.test_conical import revolution_net, translation_net
 from tests.conftest import shared_file

@@ -7,7 +7,7 @@ import pytest
 
 from components.conical import face_offset
 from components.curvature_pipeline import curvature_pipeline, pq_from_curvature_network
-from components.mesh import InputError, MeshError, boundary_vertex_mask, quad_grid, read_mesh, validate_mesh
+from components.mesh import InputError, MeshError, boundary_vertex_mask, read_mesh, validate_mesh
 from components.samples import sample_mesh
 from tests.components.test_curvature_network import trace_evenly
 from tests.conftest import shared_file

@@ -67,7 +67,6 @@ def per_face_gradients(V, T, UV):
 
 def assert_seamless(T, UV, tol=1e-6):
     """Across every interior edge the two sides differ by a quarter-turn rotation and an integer shift."""
-    m = len(T)
     H = np.stack([T.ravel(), np.roll(T, -1, axis=1).ravel()], axis=1)
     key = {(a, b): i for i, (a, b) in enumerate(H.tolist())}
     worst = 0.0

@@ -1,7 +1,6 @@
 """Tests of the planarization solver: fixed points, convergence, anchors, sliding, closeness, conical, panel health."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
@@ -12,7 +11,6 @@ from components.planarize import (
     face_planarity,
     nonconvex_faces,
     planarize,
-    planarize_mesh,
     planarize_on_surface,
     warping_height,
 )

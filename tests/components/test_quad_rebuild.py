@@ -162,7 +162,6 @@ def test_naked_ends_are_closed_to_the_boundary(patch):
 def test_interior_stop_is_trimmed(patch):
     V, T, l1, l2 = patch
     k = len(l1) // 2
-    L = l1[k]
     cut = [L if i != k else L[: len(L) // 2] for i, L in enumerate(l1)]
     rb = rebuild_from_network(V, T, cut, l2, 0.5)
     validate_mesh(rb.V, rb.F)

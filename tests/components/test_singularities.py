@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import InputError, MeshError, quad_grid, read_mesh, triangulate
+from components.mesh import InputError, MeshError, read_mesh, triangulate
 from components.samples import sample_mesh, sample_surface_function
 from components.singularities import integrated_gaussian_curvature, singularity_analysis
 from tests.conftest import shared_file

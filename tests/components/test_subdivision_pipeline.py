@@ -1,7 +1,6 @@
 """End-to-end subdivision strategy: candidate on the surface, planarized dome, typed errors before heavy work."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 import components.coarse as coarse_mod
