@@ -45,13 +45,12 @@ from __future__ import annotations
 
 import logging
 import math
-import numbers
 from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from components.mesh import InputError, boundary_loops, triangulate, validate_mesh
+from components.mesh import InputError, boundary_loops, check_int, triangulate, validate_mesh
 from components.types import Integers, Mesh, Numbers, Points
 
 log = logging.getLogger(__name__)
@@ -541,15 +540,6 @@ class CoarseResult(NamedTuple):
     warnings: list[str]
 
 
-def _check_int(value, name, lo, hi):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value).is_integer():
-        raise InputError(name, f"must be a whole number, got {value!r}")
-    v = int(value)
-    if not lo <= v <= hi:
-        raise InputError(name, f"must be between {lo} and {hi}, got {v}")
-    return v
-
-
 def _check_points(P, name):
     if P is None:
         return None
@@ -641,8 +631,8 @@ def coarse_quad_mesh(surface: Mesh, faces: int = 36, singularities: Points | Non
     >>> res.layout in ("aligned", "ogrid")
     True
     """
-    faces = _check_int(faces, "faces", 4, MAX_COARSE_FACES)
-    levels = _check_int(levels, "levels", 0, 8)
+    faces = check_int(faces, "faces", 4, MAX_COARSE_FACES)
+    levels = check_int(levels, "levels", 0, 8)
     if not isinstance(layout, str) or layout not in LAYOUTS:
         raise InputError("layout", f"must be one of {', '.join(LAYOUTS)}; got {layout!r}")
     pts = _check_points(singularities, "singularities")

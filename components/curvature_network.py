@@ -32,13 +32,12 @@ Jobard, Lefer, *Creating evenly-spaced streamlines of arbitrary density*, Visual
 from __future__ import annotations
 
 import logging
-import math
 from typing import Callable, NamedTuple
 
 import numpy as np
 
 from components.curvature import face_principal_curvature, vertex_principal_curvature
-from components.mesh import InputError, MeshError, triangulate, validate_mesh
+from components.mesh import InputError, MeshError, check_number, triangulate, validate_mesh
 from components.types import Curves, Integers, Mesh
 
 log = logging.getLogger(__name__)
@@ -228,7 +227,7 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     """
     V = np.asarray(V, np.float64)
     T = np.asarray(T, np.int64)
-    h = _check_positive(panel_size, "panel_size")
+    h = check_number(panel_size, "panel_size", 0, above=True)
     warnings: list[str] = []
     fld = principal_field(V, T, umbilic_threshold=umbilic_threshold, radius=radius)
     area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
@@ -264,8 +263,8 @@ def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: 
     if not (isinstance(mesh, (tuple, list)) and len(mesh) >= 2):
         raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
     V, F = validate_mesh(mesh[0], mesh[1], name="mesh")
-    _check_positive(panel_size, "panel_size")
-    t = _check_positive(umbilic_threshold, "umbilic_threshold", allow_zero=True)
+    check_number(panel_size, "panel_size", 0, above=True)
+    t = check_number(umbilic_threshold, "umbilic_threshold", 0)
     if t >= 1:
         raise InputError("umbilic_threshold", f"must be below 1, got {umbilic_threshold!r}")
     T = triangulate(F)[0] if F.shape[1] != 3 else F
@@ -275,16 +274,6 @@ def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: 
         raise MeshError("mesh", "the surface is closed (no boundary): the curvature network is rebuilt in a disk "
                                 "parametrization, so cut the surface open first")
     return V, T, principal_network(V, T, panel_size, umbilic_threshold, radius, tracer)
-
-
-def _check_positive(value, name, allow_zero=False):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise InputError(name, f"must be a finite number {'>=' if allow_zero else '>'} 0, got {value!r}")
-    return v
 
 
 class AngleError(NamedTuple):

@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.mesh import InputError
+from components.mesh import InputError, check_int
 from components.types import NurbsCurve
 
 log = logging.getLogger(__name__)
@@ -445,15 +445,6 @@ class CurveSamples(NamedTuple):
     closed: bool  # True: the points form a closed loop; the last point is NOT repeated
 
 
-def _check_count(count, name: str) -> int:
-    if isinstance(count, bool) or not float(count).is_integer():
-        raise InputError(name, f"must be an integer, got {count!r}")
-    count = int(count)
-    if count < 1:
-        raise InputError(name, f"must be at least 1, got {count}")
-    return count
-
-
 def _greville(c: CurveData) -> np.ndarray:
     d = c.degree
     n = len(c.Pw)
@@ -507,7 +498,7 @@ def sample_curve(curve, count: int = 10, mode: str = "arclength", name: str = "c
             P, t = P[: len(P) - drop], t[: len(t) - drop]
         P = P.copy()
     else:
-        count = _check_count(count, "count")
+        count = check_int(count, "count", 1)
         k = count if c.closed else count + 1
         if mode == "count":
             t = t0 + (t1 - t0) * np.arange(k) / count
@@ -733,7 +724,7 @@ def equal_chord_points(curve, count: int = 10, name: str = "curve") -> CurveSamp
     [3.125, 3.125]
     """
     c = curve if isinstance(curve, CurveData) else as_curve(curve, name)
-    count = _check_count(count, "count")
+    count = check_int(count, "count", 1)
     t0, t1 = c.domain
     if count == 1 and not c.closed:
         P = _eval(c, np.array([t0, t1]))

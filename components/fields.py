@@ -49,7 +49,7 @@ from components.fields_mesh import (
     to_complex,
     check_field,
 )
-from components.mesh import InputError, triangulate, validate_mesh
+from components.mesh import InputError, check_number, triangulate, validate_mesh
 from components.types import Lines, Mesh, Numbers, Points, Vectors
 
 log = logging.getLogger(__name__)
@@ -107,18 +107,6 @@ class FieldCurvature(NamedTuple):
 def _mesh_arrays(V, T, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     V, T = validate_mesh(V, T, name=name, kind="tri")
     return V, T
-
-
-def _check_weight(value, name: str, positive: bool = False) -> float:
-    if isinstance(value, bool):
-        raise InputError(name, f"must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x) or x < 0 or (positive and x == 0):
-        raise InputError(name, f"must be a finite {'positive' if positive else 'non-negative'} number, got {value!r}")
-    return x
 
 
 def _check_int(value, name: str, lo: int, hi: int) -> int:
@@ -416,10 +404,10 @@ def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constrain
     True
     """
     V, T = _mesh_arrays(V, T)
-    alignment = _check_weight(alignment, "alignment")
-    boundary_weight = _check_weight(boundary_weight, "boundary_weight")
+    alignment = check_number(alignment, "alignment", 0)
+    boundary_weight = check_number(boundary_weight, "boundary_weight", 0)
     if constraint_weight is not None:
-        constraint_weight = _check_weight(constraint_weight, "constraint_weight", positive=True)
+        constraint_weight = check_number(constraint_weight, "constraint_weight", 0, above=True)
     m = len(T)
     fr = face_frames(V, T)
     dg = dual_graph(V, T, fr)
@@ -637,11 +625,11 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     V, T = _mesh_arrays(V, T)
     m = len(T)
     U0, W0 = check_field(U0, W0, m, names=("U0", "W0"))
-    smoothness = _check_weight(smoothness, "smoothness", positive=True)
+    smoothness = check_number(smoothness, "smoothness", 0, above=True)
     iterations = _check_int(iterations, "iterations", 1, 200)
-    conjugacy_weight = _check_weight(conjugacy_weight, "conjugacy_weight", positive=True)
-    closeness = _check_weight(closeness, "closeness")
-    min_angle = _check_weight(min_angle, "min_angle")
+    conjugacy_weight = check_number(conjugacy_weight, "conjugacy_weight", 0, above=True)
+    closeness = check_number(closeness, "closeness", 0)
+    min_angle = check_number(min_angle, "min_angle", 0)
     if min_angle >= 0.5 * np.pi:
         raise InputError("min_angle", f"must be below π/2, got {min_angle!r}")
     fr = face_frames(V, T)
@@ -875,7 +863,7 @@ def conjugate_direction_field(mesh: Mesh, alignment: float = 0.1, smoothness: fl
     True
     """
     V, T = _published_mesh(mesh)
-    smoothness = _check_weight(smoothness, "smoothness", positive=True)
+    smoothness = check_number(smoothness, "smoothness", 0, above=True)
     iterations = _check_int(iterations, "iterations", 1, 200)
     cv = field_curvature(V, T)
     s = smooth_field(V, T, alignment=alignment, curvature=cv)

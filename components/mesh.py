@@ -8,6 +8,8 @@ corners repeat their last vertex, exactly Rhino's convention (a triangle in a qu
 from __future__ import annotations
 
 import logging
+import math
+import numbers
 from pathlib import Path
 from typing import NamedTuple
 
@@ -35,6 +37,88 @@ class InputError(ValueError):
 
 class MeshError(InputError):
     """A mesh input is malformed: bad shape, NaN, index out of range, degenerate or non-manifold."""
+
+
+# ----------------------------------------------------------------------------------------------
+# scalar inputs
+
+
+def check_int(value, name: str, lo: int | None = None, hi: int | None = None) -> int:
+    """A whole-number input: an int, a numpy integer or an integral float (``3.0``), never a bool.
+
+    Parameters
+    ----------
+    value : object
+        The input as received.
+    name : str
+        The input's name (starts the error message).
+    lo, hi : int or None
+        Inclusive bounds; ``None`` leaves that side open.
+
+    Returns
+    -------
+    int
+        ``int(value)``.
+
+    Raises
+    ------
+    InputError
+        ``"<name>: must be a whole number, got …"`` or ``"<name>: must be <lo> or more, got …"`` /
+        ``"must be between <lo> and <hi>, got …"`` / ``"must be <hi> or less, got …"``.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value).is_integer():
+        raise InputError(name, f"must be a whole number, got {value!r}")
+    v = int(value)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        if hi is None:
+            raise InputError(name, f"must be {lo} or more, got {v}")
+        if lo is None:
+            raise InputError(name, f"must be {hi} or less, got {v}")
+        raise InputError(name, f"must be between {lo} and {hi}, got {v}")
+    return v
+
+
+def check_number(value, name: str, lo: float | None = None, *, above: bool = False, finite: bool = True) -> float:
+    """A real-number input (int, float or numpy scalar, never a bool), optionally bounded below.
+
+    Parameters
+    ----------
+    value : object
+        The input as received.
+    name : str
+        The input's name (starts the error message).
+    lo : float or None
+        Lower bound; ``None`` for none.
+    above : bool
+        ``True``: the value must be strictly greater than ``lo`` (``lo=0, above=True`` = positive).
+    finite : bool
+        Reject ``±inf`` (NaN is always rejected).
+
+    Returns
+    -------
+    float
+        ``float(value)``.
+
+    Raises
+    ------
+    InputError
+        ``"<name>: must be a number, got …"`` or ``"<name>: must be a finite number >= <lo>, got …"``.
+    """
+    if isinstance(value, bool):
+        raise InputError(name, f"must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {value!r}") from None
+    bad = math.isnan(x) or (finite and math.isinf(x))
+    if lo is not None:
+        bad = bad or x < lo or (above and x == lo)
+    if bad:
+        what = "a finite number" if finite else "a number"
+        if lo is not None:
+            what += f" {'>' if above else '>='} {lo:g}"
+        raise InputError(name, f"must be {what}, got {value!r}")
+    return x
 
 
 # ----------------------------------------------------------------------------------------------

@@ -48,8 +48,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 from scipy.sparse.linalg import splu
 
-from components.mesh import InputError, MeshError, boundary_loops, edge_topology, triangulate, validate_mesh
-from components.types import Curves, Mesh, Numbers, Points
+from components.mesh import InputError, MeshError, boundary_loops, check_number, edge_topology, triangulate, validate_mesh
+from components.types import Curves, Mesh, Points
 
 log = logging.getLogger(__name__)
 
@@ -104,16 +104,6 @@ def _check_choice(value, choices, name: str) -> str:
     if value not in choices:
         raise InputError(name, f"must be one of {choices}, got {value!r}")
     return value
-
-
-def _check_nonneg(value, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x) or x < 0:
-        raise InputError(name, f"must be a non-negative number, got {value!r}")
-    return x
 
 
 def _triangle_mesh(mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -549,7 +539,6 @@ class _Boundary(NamedTuple):
 
 def _boundary_segments(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: float, min_run: float) -> _Boundary:
     """Label each boundary edge with the field family closest to it and group runs into segments."""
-    m = len(T)
     n = len(V)
     bh = np.nonzero(tp.twin < 0)[0]
     key = tp.H[bh, 0]
@@ -735,7 +724,7 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     W = np.asarray(W, dtype=np.float64)
     target = _check_length(target_length)
     _check_choice(boundary, BOUNDARY_MODES, "boundary")
-    bw = _check_nonneg(boundary_weight, "boundary_weight")
+    bw = check_number(boundary_weight, "boundary_weight", 0)
     n, m = len(V), len(T)
     if U.shape != (m, 3) or W.shape != (m, 3):
         raise InputError("field", f"U and W must have shape ({m}, 3), got {U.shape} and {W.shape}")
@@ -1047,7 +1036,7 @@ def parametrize(mesh: Mesh, target_length: float, field: str = "conjugate", alig
     """
     target = _check_length(target_length)
     _check_choice(field, FIELDS, "field")
-    alignment = _check_nonneg(alignment, "alignment")
+    alignment = check_number(alignment, "alignment", 0)
     _check_choice(boundary, BOUNDARY_MODES, "boundary")
     V, F, T, _ = _triangle_mesh(mesh)
     _check_target_against(V, T, target)

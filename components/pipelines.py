@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.extract import quad_mesh_from_parametrization, snap_boundary
-from components.mesh import InputError, edge_topology, face_sizes
+from components.mesh import InputError, check_number, edge_topology, face_sizes
 from components.parametrize import (
     BOUNDARY_MODES,
     FIELDS,
@@ -32,7 +32,6 @@ from components.parametrize import (
     _check_choice,
     _check_constraints,
     _check_length,
-    _check_nonneg,
     _check_target_against,
     _triangle_mesh,
     direction_field,
@@ -123,7 +122,7 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     timings = {}
     target = _check_length(target_length)
     _check_choice(field, FIELDS, "field")
-    alignment = _check_nonneg(alignment, "alignment")
+    alignment = check_number(alignment, "alignment", 0)
     _check_choice(boundary, BOUNDARY_MODES + ("snap",), "boundary")
     V, F, T, J = _triangle_mesh(mesh, name=name)
     cons = _check_constraints(constraint_faces, constraint_directions, len(T))
@@ -297,8 +296,8 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     >>> res.planarized_max_planarity <= 1e-4
     True
     """
-    tol = _check_nonneg(tolerance, "tolerance")
-    budget = _check_nonneg(time_budget, "time_budget")
+    tol = check_number(tolerance, "tolerance", 0)
+    budget = check_number(time_budget, "time_budget", 0)
     cand = candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary,
                           constraint_faces=constraint_faces, constraint_directions=constraint_directions)
     target = float(target_length)

@@ -46,6 +46,7 @@ from components.mesh import (
     InputError,
     MeshError,
     boundary_loops,
+    check_number,
     edge_topology,
     face_normals,
     face_sizes,
@@ -121,18 +122,6 @@ class PlanarizeResult(NamedTuple):
 
 # ----------------------------------------------------------------------------------------------
 # input checks
-
-
-def _check_weight(name, value):
-    try:
-        w = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not math.isfinite(w):
-        raise InputError(name, f"must be finite, got {w}")
-    if w < 0:
-        raise InputError(name, f"must be non-negative, got {w}")
-    return w
 
 
 def _check_anchors(anchors, n):
@@ -355,21 +344,21 @@ def planarize_mesh(
     t0 = time.perf_counter()
     V, F = validate_mesh(V, F, name=mesh_name)
     n = len(V)
-    w_close = _check_weight("closeness_weight", closeness_weight)
-    w_start = _check_weight("start_weight", start_weight)
-    w_fair = _check_weight("fairness_weight", fairness_weight)
-    w_edge = _check_weight("edge_length_weight", edge_length_weight)
-    w_area = _check_weight("area_weight", area_weight)
-    w_con = _check_weight("conical_weight", conical_weight)
-    t_edge = _check_weight("target_edge_length", target_edge_length)
-    t_area = _check_weight("target_area", target_area)
-    tol = _check_weight("tolerance", tolerance)
-    atol = _check_weight("absolute_tolerance", absolute_tolerance)
-    budget = _check_weight("time_budget", time_budget)
-    guard = _check_weight("angle_guard", angle_guard)
+    w_close = check_number(closeness_weight, "closeness_weight", 0)
+    w_start = check_number(start_weight, "start_weight", 0)
+    w_fair = check_number(fairness_weight, "fairness_weight", 0)
+    w_edge = check_number(edge_length_weight, "edge_length_weight", 0)
+    w_area = check_number(area_weight, "area_weight", 0)
+    w_con = check_number(conical_weight, "conical_weight", 0)
+    t_edge = check_number(target_edge_length, "target_edge_length", 0)
+    t_area = check_number(target_area, "target_area", 0)
+    tol = check_number(tolerance, "tolerance", 0)
+    atol = check_number(absolute_tolerance, "absolute_tolerance", 0)
+    budget = check_number(time_budget, "time_budget", 0)
+    guard = check_number(angle_guard, "angle_guard", 0)
     if guard >= 1:
         raise InputError("angle_guard", f"must be below 1, got {guard}")
-    relax = _check_weight("relax", relax)
+    relax = check_number(relax, "relax", 0)
     if relax > 1:
         raise InputError("relax", f"must be at most 1, got {relax}")
     try:

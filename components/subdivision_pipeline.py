@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.mesh import InputError, bounding_box_diagonal, edge_topology, triangulate, validate_mesh
+from components.mesh import InputError, check_int, edge_topology, triangulate, validate_mesh
 from components.types import Mesh
 
 log = logging.getLogger(__name__)
@@ -45,16 +45,6 @@ class SubdivisionPQ(NamedTuple):
     timings: dict
     warnings: list
     layout: str  # layout of the coarse net ("aligned", "ogrid", "patches", or "given")
-
-
-def _check_int(value, name, lo):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or \
-            not float(value).is_integer():
-        raise InputError(name, f"must be a whole number, got {value!r}")
-    v = int(value)
-    if v < lo:
-        raise InputError(name, f"must be {lo} or more, got {v}")
-    return v
 
 
 def _mean_edge(V, F):
@@ -108,9 +98,9 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     from components.subdivide import coarse_mesh, face_count_after
 
     # ---- every check first (cheap)
-    levels = _check_int(levels, "levels", 0)
-    max_faces = _check_int(max_faces, "max_faces", 1)
-    faces = _check_int(faces, "faces", 4)
+    levels = check_int(levels, "levels", 0)
+    max_faces = check_int(max_faces, "max_faces", 1)
+    faces = check_int(faces, "faces", 4)
     if not isinstance(layout, str) or layout not in ("auto", "aligned", "ogrid"):
         raise InputError("layout", f"must be one of auto, aligned, ogrid; got {layout!r}")
     V, F = validate_mesh(V, T, name="surface", manifold=True)

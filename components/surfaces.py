@@ -33,9 +33,8 @@ from components.curves import (
     equal_chord_points,
     full_knots,
     sample_curve,
-    _check_count,
 )
-from components.mesh import InputError, face_normals
+from components.mesh import InputError, check_int, face_normals
 from components.types import Curve, Mesh, NurbsCurve, Numbers, Point, Points, Surface
 
 log = logging.getLogger(__name__)
@@ -284,8 +283,8 @@ def translation_surface(
     """
     _check_mode(sampling, ("count", "arclength", "control"), "sampling")
     _check_mode(translate, TRANSLATE_MODES, "translate")
-    cu = _check_count(count_u, "count_u")
-    cv = _check_count(count_v, "count_v")
+    cu = check_int(count_u, "count_u", 1)
+    cv = check_int(count_v, "count_v", 1)
     g = as_curve(generatrix, "generatrix")
     d = as_curve(directrix, "directrix")
     sg = _sample(g, cu, sampling, "generatrix", equal_steps and translate == "directrix")
@@ -388,8 +387,8 @@ def scale_translation_surface(
     (20, True, 0.59049)
     """
     _check_mode(sampling, ("count", "arclength", "control"), "sampling")
-    cu = _check_count(count_u, "count_u")
-    cv = _check_count(count_v, "count_v")
+    cu = check_int(count_u, "count_u", 1)
+    cv = check_int(count_v, "count_v", 1)
     try:
         scale = float(scale)
     except (TypeError, ValueError):
@@ -524,8 +523,8 @@ def paraboloid_surface(
     b = _positive(span_v, "span_v")
     hu = _finite(rise_u, "rise_u")
     hv = _finite(rise_v, "rise_v")
-    cu = _check_count(count_u, "count_u")
-    cv = _check_count(count_v, "count_v")
+    cu = check_int(count_u, "count_u", 1)
+    cv = check_int(count_v, "count_v", 1)
     sign = 1.0 if kind == "elliptic" else -1.0
     knots = np.array([0.0, 0.0, 1.0, 1.0])
     G = NurbsCurve(
@@ -754,8 +753,8 @@ def surface_mesh(
                 "edge_length", f"{h} is too small for a {len_u:.4g} × {len_v:.4g} surface ({cu} × {cv} cells)"
             )
     else:
-        cu = _check_count(count_u, "count_u")
-        cv = _check_count(count_v, "count_v")
+        cu = check_int(count_u, "count_u", 1)
+        cv = check_int(count_v, "count_v", 1)
         if (cu + 1) * (cv + 1) > _MAX_GRID_VERTICES:
             raise InputError("count_u", f"{cu} × {cv} cells exceed the limit of {_MAX_GRID_VERTICES} vertices")
     u = np.linspace(*s.domain_u, cu + 1)
