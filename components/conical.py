@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.mesh import InputError, MeshError, edge_topology, face_sizes, validate_mesh
+from components.mesh import Corners, InputError, MeshError, edge_topology, face_corners, face_sizes, validate_mesh
 from components.types import Integers, Lines, Mesh, Numbers
 
 log = logging.getLogger(__name__)
@@ -42,32 +42,10 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------------------------
-# private topology helpers (candidates for the shared mesh basics: corner table and ordered vertex stars)
+# private topology helpers (ordered vertex stars; the corner table is components.mesh.face_corners)
 
 
-class _Corners(NamedTuple):
-    face: np.ndarray  # (c,) face of every corner
-    v: np.ndarray  # (c,) vertex
-    prev: np.ndarray  # (c,) previous vertex in the face
-    next: np.ndarray  # (c,) next vertex in the face
-
-
-def _corners(F: np.ndarray) -> _Corners:
-    F = np.asarray(F, dtype=np.int64)
-    m, k = F.shape
-    sizes = face_sizes(F)
-    cols = np.arange(k)[None, :]
-    valid = cols < sizes[:, None]
-    nxt_col = np.where(cols + 1 < sizes[:, None], cols + 1, 0)
-    prv_col = np.where(cols > 0, cols - 1, sizes[:, None] - 1)
-    rows = np.broadcast_to(np.arange(m)[:, None], (m, k))
-    v = F[rows, np.broadcast_to(cols, (m, k))]
-    nx = F[rows, nxt_col]
-    pv = F[rows, prv_col]
-    return _Corners(rows[valid], v[valid], pv[valid], nx[valid])
-
-
-def _regular_stars(C: _Corners, n: int) -> tuple[np.ndarray, np.ndarray]:
+def _regular_stars(C: Corners, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Interior valence-4 vertices and their four corners in cyclic order (each the successor of the last).
 
     The successor of corner ``(v, prev, next)`` is the corner at ``v`` in the face across the edge ``v → next``
@@ -95,7 +73,7 @@ def _regular_stars(C: _Corners, n: int) -> tuple[np.ndarray, np.ndarray]:
     return cand[ok], ring[ok]
 
 
-def _corner_angles(V: np.ndarray, C: _Corners) -> np.ndarray:
+def _corner_angles(V: np.ndarray, C: Corners) -> np.ndarray:
     a = V[C.prev] - V[C.v]
     b = V[C.next] - V[C.v]
     return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
@@ -154,7 +132,7 @@ def conical_criterion(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    C = _corners(F)
+    C = face_corners(F)
     verts, ring = _regular_stars(C, len(V))
     ang = _corner_angles(V, C)
     A = ang[ring]
@@ -169,7 +147,7 @@ class ConeFit(NamedTuple):
     deviation: np.ndarray  # (n,) half the spread (max − min) of those angles, radians; 0 on an exact cone
 
 
-def _vertex_face_groups(C: _Corners, n: int):
+def _vertex_face_groups(C: Corners, n: int):
     """Yield ``(k, vertices (g,), faces (g, k))``: vertices grouped by their number of incident faces."""
     order = np.argsort(C.v, kind="stable")
     count = np.bincount(C.v, minlength=n)
@@ -210,7 +188,7 @@ def cone_fit(V: np.ndarray, F: np.ndarray) -> ConeFit:
     F = np.asarray(F, dtype=np.int64)
     n = len(V)
     N = _face_normals_lsq(V, F)[0]
-    C = _corners(F)
+    C = face_corners(F)
     axis = np.zeros((n, 3))
     half = np.zeros(n)
     dev = np.zeros(n)
@@ -338,7 +316,7 @@ def conical_check(V: np.ndarray, F: np.ndarray, tol: float = 1e-4,
     verts, crit = conical_criterion(V, F)
     out = np.full(n, np.nan)
     out[verts] = np.abs(crit)
-    C = _corners(F)
+    C = face_corners(F)
     count = np.bincount(C.v, minlength=n)
     topo = edge_topology(F)
     boundary = np.zeros(n, bool)
@@ -491,7 +469,7 @@ def face_offset(V: np.ndarray, F: np.ndarray, d: float, rcond: float = 1e-6) -> 
     d = _check_distance(d)
     n = len(V)
     N, c = _face_normals_lsq(V, F)
-    C = _corners(F)
+    C = face_corners(F)
     X = V.copy()
     for k, verts, faces in _vertex_face_groups(C, n):
         P = N[faces]  # (g, k, 3)
@@ -605,7 +583,7 @@ def vertex_offset(V: np.ndarray, F: np.ndarray, d: float) -> Offset:
     F = np.asarray(F, dtype=np.int64)
     d = _check_distance(d)
     N, c = _face_normals_lsq(V, F)
-    C = _corners(F)
+    C = face_corners(F)
     S = np.zeros_like(V)
     np.add.at(S, C.v, N[C.face])
     L = np.linalg.norm(S, axis=1, keepdims=True)
@@ -709,7 +687,7 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
         warnings.append("no interior vertex with four or more faces: nothing to check")
     failed = np.nonzero(~chk.passed)[0]
     fit = cone_fit(V, F)
-    nfaces = np.bincount(_corners(F).v, minlength=len(V))
+    nfaces = np.bincount(face_corners(F).v, minlength=len(V))
     dev_ok = nfaces >= 3
     planarity = _quad_planarity(V, F)
     max_pl = float(planarity.max()) if len(planarity) else 0.0

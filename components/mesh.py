@@ -247,6 +247,33 @@ def halfedges(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return H, HF
 
 
+class Corners(NamedTuple):
+    """Every corner of every face: vertex, previous and next corner vertex, face."""
+
+    v: np.ndarray  # (c,) vertex at the corner
+    prev: np.ndarray  # (c,) previous vertex of the face
+    next: np.ndarray  # (c,) next vertex of the face
+    face: np.ndarray  # (c,) face index
+    slot: np.ndarray  # (c,) position of the corner in its face
+
+
+def face_corners(F: np.ndarray) -> Corners:
+    """All corners of padded polygon faces, face by face, in face order."""
+    F = np.asarray(F, dtype=np.int64)
+    m, k = F.shape
+    sizes = face_sizes(F)
+    cols = np.arange(k)[None, :]
+    valid = cols < sizes[:, None]
+    s = sizes[:, None]
+    nxt_idx = (cols + 1) % s
+    prv_idx = (cols - 1) % s
+    rows = np.broadcast_to(np.arange(m)[:, None], (m, k))
+    v = F[valid]
+    nxt = F[rows, nxt_idx][valid]
+    prv = F[rows, prv_idx][valid]
+    return Corners(v, prv, nxt, rows[valid].copy(), np.broadcast_to(cols, (m, k))[valid].copy())
+
+
 class EdgeTopology(NamedTuple):
     """Undirected edges and their incidence (see :func:`edge_topology`)."""
 
