@@ -36,6 +36,7 @@ import rhino3dm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from ghserver.convert import arrays_to_mesh, mesh_to_arrays  # noqa: E402
 from ghserver._onmesh import read_mesh, read_mesh_colors, write_mesh  # noqa: E402
 
 REPEATS = 9
@@ -75,28 +76,14 @@ def unwelded_display_mesh(n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def build_slow(V: np.ndarray, F: np.ndarray, C: np.ndarray | None = None) -> rhino3dm.Mesh:
-    """rhino3dm Mesh built vertex by vertex (double precision), optionally with vertex colours."""
-    mesh = rhino3dm.Mesh()
-    mesh.Vertices.UseDoublePrecisionVertices = True
-    add = mesh.Vertices.AddPoint3d
-    for x, y, z in V.tolist():
-        add(x, y, z)
-    addf = mesh.Faces.AddFace
-    for a, b, c, d in F.tolist():
-        addf(a, b, c, d)
-    if C is not None:
-        addc = mesh.VertexColors.Add
-        for r, g, b in C.tolist():
-            addc(r, g, b)
-    return mesh
+    """rhino3dm Mesh built vertex by vertex (double precision), optionally with vertex colours: the server's
+    fallback path (:func:`ghserver.convert.arrays_to_mesh`)."""
+    return arrays_to_mesh(V, F, C)
 
 
 def read_slow(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and faces read back through rhino3dm objects."""
-    V = np.array([(p.X, p.Y, p.Z) for p in mesh.Vertices.ToPoint3dArray()], dtype=np.float64)
-    faces = mesh.Faces
-    F = np.array([faces[i] for i in range(len(faces))], dtype=np.int64)
-    return V, F
+    """Vertices and faces read back through rhino3dm objects (:func:`ghserver.convert.mesh_to_arrays`)."""
+    return mesh_to_arrays(mesh)
 
 
 def read_slow_colors(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
