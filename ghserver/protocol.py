@@ -247,33 +247,31 @@ def _iterations(component: Component, trees: dict[str, dict[tuple, list]], limit
                     for p in branched}
     n_branches = max([len(b) for b in branch_lists.values()] + [1])
     master = max(branched, key=lambda p: len(branch_lists[p.name]), default=None)
+    memo: dict[tuple[str, int], Any] = {}  # a repeated (last) branch is decoded once, not once per iteration
+
+    def decoded_branch(p, k: int):
+        if (p.name, k) not in memo:
+            items = branch_lists[p.name][k][1]
+            values = _decode_items(p, items, limits)
+            memo[(p.name, k)] = _list_value(p, values) if p.access == "list" else values
+        return memo[(p.name, k)]
+
     for b in range(n_branches):
         if master is not None and branch_lists[master.name]:
             bl = branch_lists[master.name]
             path = bl[min(b, len(bl) - 1)][0]
         else:
             path = (b,)
-        per_input = {}
-        for p in branched:
-            bl = branch_lists[p.name]
-            items = bl[min(b, len(bl) - 1)][1] if bl else []
-            if not items:
-                if p.has_default or p.optional:
-                    per_input[p.name] = None  # use the default
-                    continue
-                raise RequestError(f"{p.name}: missing required input (no value given)")
-            per_input[p.name] = items
-        counts = [len(v) for p in branched if p.access == "item" and (v := per_input[p.name]) is not None]
-        n_iter = max(counts + [1])
         decoded = {}
         for p in branched:
-            items = per_input[p.name]
-            if items is None:
-                continue
-            if p.access == "list":
-                decoded[p.name] = _list_value(p, _decode_items(p, items, limits))
-            else:
-                decoded[p.name] = _decode_items(p, items, limits)
+            bl = branch_lists[p.name]
+            if not bl:
+                if p.has_default or p.optional:
+                    continue  # use the default
+                raise RequestError(f"{p.name}: missing required input (no value given)")
+            decoded[p.name] = decoded_branch(p, min(b, len(bl) - 1))
+        counts = [len(decoded[p.name]) for p in branched if p.access == "item" and p.name in decoded]
+        n_iter = max(counts + [1])
         for i in range(n_iter):
             kwargs = dict(tree_values)
             for p in branched:

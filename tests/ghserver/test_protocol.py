@@ -413,3 +413,22 @@ def test_request_is_not_mutated(client):
     before = copy.deepcopy(body)
     client.post("/solve", json=body)
     assert body == before
+
+
+def test_a_repeated_branch_is_decoded_once(client, monkeypatch):
+    from ghserver import params
+
+    calls = []
+    real = params.decode_item
+
+    def counting(kind, item):
+        calls.append(kind)
+        return real(kind, item)
+
+    monkeypatch.setattr(params, "decode_item", counting)
+    V, Q = quad_grid(3, 3)
+    body = hops_body("foo", hops_tree("Mesh", [mesh_data(V, Q)]),
+                     {"ParamName": "Distance", "InnerTree": {f"{{{i}}}": [{"data": str(i)}] for i in range(4)}})
+    r = client.post("/solve", json=body)
+    assert r.status_code == 200 and len(values(r)["Area"]) == 4  # one answer per branch of Distance
+    assert calls.count("Mesh") == 1 and calls.count("Number") == 4
