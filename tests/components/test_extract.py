@@ -146,3 +146,26 @@ def test_extract_quads_errors(nonmanifold_fan):
         extract_quads((V, T), target_length=0.0)
     with pytest.raises(MeshError, match="mesh"):
         extract_quads(nonmanifold_fan, target_length=0.1)
+
+
+@pytest.mark.parametrize("angle", [25, 40])
+def test_snap_merges_boundary_triangles(angle):
+    V, T = plane(n=12, size=6.0)
+    a = np.radians(angle)
+    U, W = constant_field(T, [np.cos(a), np.sin(a), 0], [-np.sin(a), np.cos(a), 0])
+    h = 0.6
+    par = seamless_parametrization(V, T, U, W, target_length=h, boundary="free")
+    ex = quad_mesh_from_parametrization(V, T, par.UV, target_length=h)
+    Vk, Fk, *_ = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, h, merge_triangles=False)
+    Vs, Fs, tri, bary, grid = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, h)
+    validate_mesh(Vs, Fs)
+    assert euler(Vs, Fs) == 1
+    assert oriented_like(Vs, Fs, V, T, tri).min() > 0
+    # fewer triangles, no fewer quads, same tiling of the square, every vertex still on the plane
+    assert np.sum(face_sizes(Fs) == 3) <= np.sum(face_sizes(Fk) == 3)
+    assert np.sum(face_sizes(Fs) == 4) >= np.sum(face_sizes(Fk) == 4)
+    assert np.mean(face_sizes(Fs) == 4) >= np.mean(face_sizes(Fk) == 4)
+    area = np.linalg.norm(face_normals(Vs, Fs, unit=False), axis=1).sum()
+    assert area == pytest.approx(36.0, rel=1e-2)
+    P = np.einsum("pk,pkd->pd", bary, V[T[tri]])
+    assert np.abs(P - Vs).max() < 1e-9
