@@ -635,7 +635,8 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
         Relaxation sweeps of the boundary band (0: none).
     merge_triangles : bool
         Remove the triangles left along the boundary where the grid meets it obliquely: two triangles sharing an
-        edge become one quad when their union is convex; a triangle with one boundary edge loses that edge (its two
+        edge become one quad when their union is convex; a triangle, a quad and a triangle around one boundary
+        vertex become two quads; a triangle with one boundary edge loses that edge (its two
         boundary vertices merge, the quads on either side stay quads) unless that stretches the cells around it
         past ``1.75 · target_length``.
 
@@ -873,7 +874,11 @@ def _boundary_turns(Vc: np.ndarray, Fc: np.ndarray):
 
 
 def _convex_quad(P: np.ndarray, max_angle: float = 160.0) -> bool:
-    """Whether the 3D quad ``P (4, 3)`` is convex in its mean plane with every corner below ``max_angle``."""
+    """Whether the 3D quad ``P (4, 3)`` is convex in its mean plane with every corner below ``max_angle``.
+
+    ``max_angle`` above 180° admits slightly reflex corners (a straight corner that the boundary relaxation then
+    bends): every corner's turn is measured signed about the quad's mean normal.
+    """
     n = np.cross(P[2] - P[0], P[3] - P[1])
     nn = np.linalg.norm(n)
     if nn <= 1e-300:
@@ -882,19 +887,44 @@ def _convex_quad(P: np.ndarray, max_angle: float = 160.0) -> bool:
     for i in range(4):
         a = P[i - 1] - P[i]
         b = P[(i + 1) % 4] - P[i]
-        if np.cross(b, a) @ n <= 0:
-            return False
-        c = a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-300)
-        if c < np.cos(np.radians(max_angle)):
+        ang = np.degrees(np.arctan2(np.cross(b, a) @ n, a @ b)) % 360.0  # interior angle, counter-clockwise
+        if not 1.0 < ang < max_angle:
             return False
     return True
+
+
+def _union_cycle(polys: list):
+    """Outline of the union of adjacent polygons (one cycle of vertices) or None if it is not one simple cycle."""
+    he = {}
+    for c in polys:
+        for i in range(len(c)):
+            he[(c[i], c[(i + 1) % len(c)])] = True
+    out = {}
+    for a, b in he:
+        if (b, a) not in he:
+            if a in out:
+                return None
+            out[a] = b
+    if not out:
+        return None
+    start = next(iter(out))
+    cyc, v = [start], out[start]
+    while v != start:
+        if v not in out or len(cyc) > len(out):
+            return None
+        cyc.append(v)
+        v = out[v]
+    return cyc if len(cyc) == len(out) else None
 
 
 def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=1.75):
     """Remove the triangles along the boundary (grid oblique to the boundary).
 
     First, two triangles sharing an interior edge, one of them on the boundary, become one quad when their union
-    is convex (the shared edge is dropped). Then a triangle ``(g, p1, p2)`` with one boundary edge ``p1 p2`` loses
+    is convex (the shared edge is dropped). Along a boundary at ~45° to the grid the boundary row alternates
+    half-cell triangles and cells standing on a corner: a boundary vertex with exactly a triangle, a quad and a
+    triangle around it is the corner of a hexagon, which the diagonal from it to the opposite corner splits into
+    two quads (corners up to 185° are admitted: the relaxation bends the straight ones). Then a triangle ``(g, p1, p2)`` with one boundary edge ``p1 p2`` loses
     that edge: ``p1`` and ``p2`` merge (when ``g`` is their only common neighbour, so the mesh stays manifold), at
     the sharp corner of the outline if one of them is one, else at the boundary point closest to their midpoint.
     The quads on either side of the triangle keep four corners; the boundary relaxation that follows evens out
@@ -940,7 +970,37 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=1.75):
             fj, q = best
             faces[fi] = q
             dead[fj] = True
-    # 2. collapse the boundary edge of the remaining boundary triangles
+    # 2. triangle, quad, triangle around a boundary vertex (the row along a ~45° boundary) → two quads
+    vf: dict = {}
+    for fi, c in enumerate(faces):
+        for v in c:
+            vf.setdefault(v, []).append(fi)
+    split = False
+    for p in np.nonzero(onb & ~fixed)[0].tolist():
+        fs = vf.get(p, [])
+        if len(fs) != 3 or sorted(len(faces[f]) for f in fs) != [3, 3, 4]:
+            continue
+        if any(len(faces[f]) == 3 and not bedges(faces[f]) for f in fs):
+            continue
+        hexa = _union_cycle([faces[f] for f in fs])
+        if hexa is None or len(hexa) != 6 or p not in hexa:
+            continue
+        r = hexa.index(p)
+        hexa = hexa[r:] + hexa[:r]
+        q1, q2 = hexa[0:4], hexa[3:6] + [hexa[0]]
+        if np.linalg.norm(Vc[hexa[3]] - Vc[p]) > stretch * h:
+            continue
+        if not (_convex_quad(Vc[q1], 185.0) and _convex_quad(Vc[q2], 185.0)):
+            continue
+        f0, f1, f2 = fs
+        faces[f0], faces[f1] = q1, q2
+        dead[f2] = True
+        split = True
+        for v in hexa:
+            vf[v] = [f for f in vf[v] if f not in fs] + [f for f in (f0, f1) if v in faces[f]]
+    if split:
+        topo = edge_topology(pad_faces([c for fi, c in enumerate(faces) if not dead[fi]]))
+    # 3. collapse the boundary edge of the remaining boundary triangles
     nv = len(Vc)
     nbrs = [set() for _ in range(nv)]
     for a, b in topo.E.tolist():

@@ -148,7 +148,7 @@ def test_extract_quads_errors(nonmanifold_fan):
         extract_quads(nonmanifold_fan, target_length=0.1)
 
 
-@pytest.mark.parametrize("angle", [25, 40])
+@pytest.mark.parametrize("angle", [25, 40, 45])
 def test_snap_merges_boundary_triangles(angle):
     V, T = plane(n=12, size=6.0)
     a = np.radians(angle)
@@ -162,8 +162,7 @@ def test_snap_merges_boundary_triangles(angle):
     assert euler(Vs, Fs) == 1
     assert oriented_like(Vs, Fs, V, T, tri).min() > 0
     # fewer triangles, no fewer quads, same tiling of the square, every vertex still on the plane
-    assert np.sum(face_sizes(Fs) == 3) <= np.sum(face_sizes(Fk) == 3)
-    assert np.sum(face_sizes(Fs) == 4) >= np.sum(face_sizes(Fk) == 4)
+    assert np.sum(face_sizes(Fs) == 3) < np.sum(face_sizes(Fk) == 3)
     assert np.mean(face_sizes(Fs) == 4) >= np.mean(face_sizes(Fk) == 4)
     area = np.linalg.norm(face_normals(Vs, Fs, unit=False), axis=1).sum()
     assert area == pytest.approx(36.0, rel=1e-2)

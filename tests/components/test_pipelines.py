@@ -57,9 +57,7 @@ def check_candidate(V, F, cand, h, quads=True):
 
 SAMPLES = ["dome", "saddle", "wave", "canopy"]
 # measured with boundary="snap" (free-boundary parametrization, grid vertices snapped onto the boundary)
-QUAD_XFAIL = {"saddle": "95% quads (94.7%): the conjugate grid meets the straight boundary at ~45°; the half-cell triangles "
-                        "left stay (removing them stretches the boundary row past ±30%: 96% quads, 86% edges)",
-              "canopy": "94.9% quads: lobed boundary oblique to the field, corner triangles stay"}
+QUAD_XFAIL = {"canopy": "94.9% quads: lobed boundary oblique to the field, corner triangles and pentagons stay"}
 EDGE_XFAIL = {"wave": "62% of edges within ±30%: the conjugate field degenerates along the parabolic lines "
                       "(40 inverted parameter triangles, angle error 14°)",
               "canopy": "87% of edges within ±30% (13 singularities, lobed boundary)"}
