@@ -432,6 +432,37 @@ def edge_lengths(V: np.ndarray, E: np.ndarray) -> np.ndarray:
     return np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
 
 
+def points_in_polygons(P: np.ndarray, loops) -> np.ndarray:
+    """Even-odd point-in-polygon test of plan points against one or several closed polygons (holes work).
+
+    Parameters
+    ----------
+    P : (p, 2) float64
+        Points in the plane.
+    loops : (q, 2) array or list of them
+        Closed polygons (the last vertex joins the first).
+
+    Returns
+    -------
+    (p,) bool
+        True inside an odd number of the polygons.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    if isinstance(loops, np.ndarray) and loops.ndim == 2:
+        loops = [loops]
+    inside = np.zeros(len(P), dtype=bool)
+    x, y = P[:, 0][:, None], P[:, 1][:, None]
+    for poly in loops:
+        A, B = poly, np.roll(poly, -1, axis=0)
+        for s in range(0, len(A), 512):  # edges in chunks: memory stays (p, 512)
+            a, b = A[s:s + 512], B[s:s + 512]
+            cond = (a[None, :, 1] > y) != (b[None, :, 1] > y)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xc = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
+            inside ^= (np.count_nonzero(cond & (x < xc), axis=1) % 2).astype(bool)
+    return inside
+
+
 def bounding_box_diagonal(V: np.ndarray) -> float:
     """Length of the axis-aligned bounding box diagonal."""
     V = np.asarray(V, dtype=np.float64)

@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.mesh import InputError, MeshError, boundary_loops, edge_topology
+from components.mesh import InputError, MeshError, boundary_loops, edge_topology, points_in_polygons
 from components.types import Curve, Mesh, Numbers, Vectors
 
 log = logging.getLogger(__name__)
@@ -323,21 +323,6 @@ def _point_segment_distance(P: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.n
     return best
 
 
-def _inside_polygon(P: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd rule point-in-polygon (vectorized over points, loop over edges in chunks)."""
-    inside = np.zeros(len(P), dtype=bool)
-    A = poly
-    B = np.roll(poly, -1, axis=0)
-    x, y = P[:, 0][:, None], P[:, 1][:, None]
-    for start in range(0, len(A), 256):
-        a, b = A[start:start + 256], B[start:start + 256]
-        cond = (a[None, :, 1] > y) != (b[None, :, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xc = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
-        inside ^= (np.sum(cond & (x < xc), axis=1) % 2).astype(bool)
-    return inside
-
-
 def _signed_area2(XY: np.ndarray, T: np.ndarray) -> np.ndarray:
     a, b, c = XY[T[:, 0]], XY[T[:, 1]], XY[T[:, 2]]
     return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -431,7 +416,7 @@ def sample_mesh(name: str = "dome", resolution: int = 32) -> tuple[np.ndarray, n
     cen = XY[T].mean(axis=1)
     inside = s.contains(cen[:, 0], cen[:, 1])
     near = tree.query(cen)[0] <= half + 2 * h
-    inside[near] = _inside_polygon(cen[near], BXY)
+    inside[near] = points_in_polygons(cen[near], BXY)
     T = T[inside]
     flip = _signed_area2(XY, T) < 0
     T[flip] = T[flip][:, [0, 2, 1]]

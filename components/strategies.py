@@ -45,6 +45,7 @@ from components.mesh import (
     boundary_loops,
     edge_topology,
     face_normals,
+    points_in_polygons,
     remove_unreferenced,
     triangulate,
     validate_mesh,
@@ -166,22 +167,6 @@ def _frame(V: np.ndarray, T: np.ndarray):
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(up, e1)
     return origin, e1, e2, up
-
-
-def _inside(P: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
-    """Even-odd point-in-polygon of plan points ``P (p, 2)`` against several closed polygons (holes work)."""
-    inside = np.zeros(len(P), dtype=bool)
-    x, y = P[:, 0][:, None], P[:, 1][:, None]
-    for poly in loops:
-        a, b = poly, np.roll(poly, -1, axis=0)
-        for s in range(0, len(a), 512):
-            a0, b0 = a[s:s + 512], b[s:s + 512]
-            cond = (a0[None, :, 1] > y) != (b0[None, :, 1] > y)
-            dy = b0[None, :, 1] - a0[None, :, 1]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                xc = a0[None, :, 0] + (y - a0[None, :, 1]) * (b0[None, :, 0] - a0[None, :, 0]) / dy
-            inside ^= (np.count_nonzero(cond & (x < xc), axis=1) % 2).astype(bool)
-    return inside
 
 
 def _largest_component(F: np.ndarray) -> np.ndarray:
@@ -335,7 +320,7 @@ def translation_candidate(V, T, panel_size: float, angles: int = 18, name: str =
     loops = boundary_loops(T, name=name)
     cu = (u0 + h * (I.ravel() + 0.5))[:, None] * a[None, :]
     cv = (v0 + h * (J.ravel() + 0.5))[:, None] * b[None, :]
-    inside = _inside(cu + cv, [X[lp] for lp in loops]) if loops else np.ones(len(Q), bool)
+    inside = points_in_polygons(cu + cv, [X[lp] for lp in loops]) if loops else np.ones(len(Q), bool)
     Q = Q[inside]
     if len(Q) == 0:
         raise InputError("panel_size", f"{h:g} is too large: no translation panel fits inside the surface outline")
