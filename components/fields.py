@@ -79,7 +79,8 @@ class Field(NamedTuple):
     their indices (multiples of 1/4), ``alignment_error`` (m,) angle in radians between the field and the
     principal directions (the larger of the two directions' angles to the nearest principal line),
     ``conjugacy_error`` (m,) ``|II(U, W)| / (|k1| + |k2|)`` (0 for a conjugate pair), ``anisotropy`` (m,) the
-    curvature anisotropy used as alignment weight.
+    curvature anisotropy used as alignment weight, ``released`` (m,) bool: faces a conjugate field released from
+    conjugacy (``None`` for other fields).
     """
 
     U: np.ndarray
@@ -89,6 +90,7 @@ class Field(NamedTuple):
     alignment_error: np.ndarray
     conjugacy_error: np.ndarray
     anisotropy: np.ndarray
+    released: np.ndarray | None = None
 
 
 class FieldCurvature(NamedTuple):
@@ -258,6 +260,33 @@ def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, gu
     return x
 
 
+def _spread_singularities(L, w: np.ndarray, t: np.ndarray, pinned, X: np.ndarray, area: np.ndarray, iterations: int,
+                          core: float = 3.0) -> np.ndarray:
+    """Normalize-and-diffuse iterations on a coefficient field ``X`` (one factorization for all).
+
+    Each step minimizes ``Xᴴ L X + Σ w |X − t|² + Σ μ |X − X̂|²`` with ``X̂ = X / |X|`` the normalized previous
+    field and ``μ_f = A_f / ε²``, ``ε`` = ``core`` mean triangle sizes: the Ginzburg–Landau core radius, so the
+    magnitude may only vanish within about ``ε`` of a singularity.
+    """
+    m = len(X)
+    eps = core * float(np.sqrt(2.0 * area.mean()))
+    mu = area / (eps * eps)
+    free = np.ones(m, dtype=bool)
+    if pinned is not None and len(pinned[0]):
+        free[pinned[0]] = False
+    A = (L + sp.diags((w + mu).astype(complex))).tocsr()
+    Aff = A[free][:, free]
+    fixed_rhs = A[free][:, ~free] @ X[~free] if not free.all() else 0.0
+    lu = _factor(Aff)
+    wt = w * t
+    for _ in range(iterations):
+        a = np.abs(X)
+        Xn = np.divide(X, a, out=np.ones_like(X), where=a > 0)
+        X = X.copy()
+        X[free] = lu.solve((wt + mu * Xn)[free] - fixed_rhs)
+    return X
+
+
 def _roots(X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit complex ``u, v`` with ``(z² − u²)(z² − v²) ∝ z⁴ − Y z² + X``."""
     disc = np.sqrt(Y * Y - 4.0 * X)
@@ -349,7 +378,8 @@ def _finish(V, T, u, v, fr, dg, cv, aniso) -> Field:
 
 def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constraints=None,
                  constraint_weight: float | None = None, align_boundary: bool = True, boundary_weight: float = 10.0,
-                 curvature: FieldCurvature | None = None, curvature_radius: int = 2) -> Field:
+                 curvature: FieldCurvature | None = None, curvature_radius: int = 2,
+                 normalize_iterations: int = 20) -> Field:
     """Smooth 4-PolyVector field softly aligned to the principal curvature directions.
 
     Parameters
@@ -377,6 +407,12 @@ def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constrain
         Per-face principal directions and curvatures (computed with :func:`field_curvature` when omitted).
     curvature_radius : int
         Ring size of the curvature fit when ``curvature`` is omitted.
+    normalize_iterations : int
+        Normalize-and-diffuse iterations after the linear solve (0 to 200; 0 = the plain linear field). The
+        linear solve lets the field's magnitude vanish over whole regions, so its singularities merge (on a dome
+        with an aligned boundary the four quarter-turn singularities fuse into one polar point with wedge-shaped
+        panels); each iteration re-solves with a pull of the face's mass towards the normalized field, which
+        separates them (Ginzburg–Landau / MBO scheme, Viertel & Osting 2019).
 
     Returns
     -------
@@ -406,6 +442,7 @@ def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constrain
     V, T = _mesh_arrays(V, T)
     alignment = check_number(alignment, "alignment", 0)
     boundary_weight = check_number(boundary_weight, "boundary_weight", 0)
+    normalize_iterations = _check_int(normalize_iterations, "normalize_iterations", 0, 200)
     if constraint_weight is not None:
         constraint_weight = check_number(constraint_weight, "constraint_weight", 0, above=True)
     m = len(T)
@@ -443,7 +480,10 @@ def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constrain
             accX[cf] += constraint_weight * cX
             accY[cf] += constraint_weight * cY
     tX = np.divide(accX, wX, out=np.zeros(m, dtype=complex), where=wX > 0)
-    X = _solve_coefficient(_connection_laplacian(dg, m, 4), wX, tX, pinX)
+    LX = _connection_laplacian(dg, m, 4)
+    X = _solve_coefficient(LX, wX, tX, pinX)
+    if normalize_iterations:
+        X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
     if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
         tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
         Y = _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
@@ -538,6 +578,14 @@ def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, 
     return pu, pv, np.mod(best, np.pi)
 
 
+def _pair_deviation(pu, pv, u, v) -> np.ndarray:
+    """Largest angle (radians) between the lines of a pair ``(pu, pv)`` and the nearer lines of ``(u, v)``."""
+    def line(a, b):
+        return np.abs(np.angle((a * np.conj(b)) ** 2)) / 2.0
+
+    return np.maximum(np.minimum(line(pu, u), line(pu, v)), np.minimum(line(pv, v), line(pv, u)))
+
+
 def _boundary_tangents(V, dg: DualGraph, fr: FaceFrames, m: int) -> np.ndarray:
     """Unit complex tangent of a boundary edge per face (NaN where none; the last edge wins at corners)."""
     tau = np.full(m, np.nan + 0j)
@@ -559,7 +607,8 @@ def _conjugacy_weights(cv: FieldCurvature) -> np.ndarray:
 def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
                     iterations: int = 40, conjugacy_weight: float = 3.0, closeness: float = 0.01,
                     min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,
-                    curvature: FieldCurvature | None = None, curvature_radius: int = 2) -> Field:
+                    curvature: FieldCurvature | None = None, curvature_radius: int = 2,
+                    release_angle: float | None = np.radians(20.0)) -> Field:
     """Conjugate direction field near a given field: local-global alternation of Liu et al. 2011.
 
     Parameters
@@ -592,6 +641,13 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
         Per-face shape operator (:func:`field_curvature`), computed when omitted.
     curvature_radius : int
         Ring size of the curvature fit when ``curvature`` is omitted.
+    release_angle : float or None
+        After the iterations, faces whose closest conjugate pair lies more than this angle (radians) from the
+        smoothed pair are released from conjugacy (keep the smoothed pair) and ``iterations // 4`` more
+        iterations run without them. Near parabolic lines every conjugate pair collapses towards the asymptotic
+        direction and the pair there is either squeezed to ``min_angle`` or jumps to the other branch; forcing it
+        folds the field and the parametrization (inverted triangles, stretched panels). ``None``: never release.
+        The released faces are returned in ``Field.released``.
 
     Returns
     -------
@@ -630,6 +686,8 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     conjugacy_weight = check_number(conjugacy_weight, "conjugacy_weight", 0, above=True)
     closeness = check_number(closeness, "closeness", 0)
     min_angle = check_number(min_angle, "min_angle", 0)
+    if release_angle is not None:
+        release_angle = check_number(release_angle, "release_angle", 0)
     if min_angle >= 0.5 * np.pi:
         raise InputError("min_angle", f"must be below π/2, got {min_angle!r}")
     fr = face_frames(V, T)
@@ -673,13 +731,42 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
         Y = luY.solve(wc * Yp + w0 * Y0)
         u, v = _roots(X, Y)
     pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+    released = np.zeros(m, dtype=bool)
+    if release_angle is not None:
+        # faces whose closest conjugate pair is far from the smoothed pair (parabolic lines, where conjugate pairs
+        # collapse onto the asymptotic direction, or a jump to the other branch) would fold the field: they are
+        # released from conjugacy and the global step re-run so the field passes them smoothly
+        released = active & (_pair_deviation(pu, pv, u, v) > release_angle)
+        if fixed is not None:
+            released[fixed[0]] = False
+        if released.any():
+            wc = np.where(released, 0.0, wc)
+            active = active & ~released
+            luX = _factor(smoothness * _connection_laplacian(dg, m, 4) + sp.diags((wc + w0).astype(complex)))
+            luY = _factor(smoothness * _connection_laplacian(dg, m, 2) + sp.diags((wc + w0).astype(complex)))
+            for it in range(max(1, iterations // 4)):
+                pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+                pu = np.where(active, pu, u)
+                pv = np.where(active, pv, v)
+                if fixed is not None:
+                    pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
+                Xp, Yp = _poly(pu, pv)
+                X = luX.solve(wc * Xp + w0 * X0)
+                Y = luY.solve(wc * Yp + w0 * Y0)
+                u, v = _roots(X, Y)
+            pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+            late = active & (_pair_deviation(pu, pv, u, v) > release_angle)
+            if fixed is not None:
+                late[fixed[0]] = False
+            released |= late
+            active = active & ~late
     u = np.where(active, pu, u)
     v = np.where(active, pv, v)
     if fixed is not None:
         u[fixed[0]], v[fixed[0]] = fixed[1], fixed[2]
-    fld = _finish(V, T, u, v, fr, dg, cv, aniso)
-    log.debug("conjugate_field: %d faces, %d singularities, mean conjugacy error %.2e", m,
-              len(fld.singularities), float(fld.conjugacy_error.mean()))
+    fld = _finish(V, T, u, v, fr, dg, cv, aniso)._replace(released=released)
+    log.debug("conjugate_field: %d faces, %d singularities, mean conjugacy error %.2e, %d released", m,
+              len(fld.singularities), float(fld.conjugacy_error.mean()), int(released.sum()))
     return fld
 
 
@@ -872,4 +959,13 @@ def conjugate_direction_field(mesh: Mesh, alignment: float = 0.1, smoothness: fl
     err = fld.conjugacy_error
     return ConjugateFieldResult(fld.U, fld.W, V[fld.singularities], fld.singularity_index, lu, lw, err,
                                 float(err.max()), float(err.mean()), len(fld.singularities),
-                                float(s.conjugacy_error.mean()), _singularity_warnings(fld, len(T)))
+                                float(s.conjugacy_error.mean()), _singularity_warnings(fld, len(T))
+                                + _release_warnings(fld, len(T)))
+
+
+def _release_warnings(fld: Field, m: int) -> list[str]:
+    k = 0 if fld.released is None else int(np.count_nonzero(fld.released))
+    if not k:
+        return []
+    return [f"{k} of {m} triangles keep the smooth pair instead of a conjugate one (their closest conjugate pair "
+            f"would fold the field: parabolic lines or a branch jump); conjugacy_error shows them"]

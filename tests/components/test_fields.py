@@ -266,13 +266,19 @@ def test_conjugate_field_is_conjugate_and_smooth(name):
     V, T, _ = sample_mesh(name, 40)
     cv = field_curvature(V, T)
     s = smooth_field(V, T, curvature=cv)
-    c = conjugate_field(V, T, s.U, s.W, curvature=cv)
-    assert _unit_rows(c.U) and _unit_rows(c.W)
-    assert c.conjugacy_error.mean() < 1e-3 * s.conjugacy_error.mean()
-    assert c.conjugacy_error.max() < 1e-9
-    np.testing.assert_allclose(conjugacy_error(c.U, c.W, cv), c.conjugacy_error)
-    ang = np.degrees(np.arccos(np.abs(np.einsum("ij,ij->i", c.U, c.W))))
-    assert ang.min() >= 25.0 - 1e-6
+    for release in (None, np.radians(20.0)):
+        c = conjugate_field(V, T, s.U, s.W, curvature=cv, release_angle=release)
+        assert _unit_rows(c.U) and _unit_rows(c.W)
+        kept = ~c.released
+        # every face not released is exactly conjugate; released faces are few and keep a smoothed pair
+        assert c.conjugacy_error[kept].max() < 1e-9
+        assert c.conjugacy_error[kept].mean() < 1e-3 * s.conjugacy_error.mean()
+        assert np.mean(c.released) < 0.1
+        if release is None:
+            assert not c.released.any()
+        np.testing.assert_allclose(conjugacy_error(c.U, c.W, cv), c.conjugacy_error)
+        ang = np.degrees(np.arccos(np.abs(np.einsum("ij,ij->i", c.U, c.W))))
+        assert ang[kept].min() >= 25.0 - 1e-6
     assert len(c.singularities) <= 30
 
 
@@ -282,7 +288,8 @@ def test_conjugate_field_real_meshes(name):
     cv = field_curvature(V, T)
     s = smooth_field(V, T, curvature=cv)
     c = conjugate_field(V, T, s.U, s.W, curvature=cv)
-    assert c.conjugacy_error.max() < 1e-9 < s.conjugacy_error.mean()
+    assert c.conjugacy_error[~c.released].max() < 1e-9 < s.conjugacy_error.mean()
+    assert np.mean(c.released) < 0.1
     assert len(c.singularities) <= 25
 
 
@@ -309,7 +316,11 @@ def test_published_components():
     assert res.singularity_count == len(res.singularities) == len(res.singularity_index)
     assert 0 <= res.mean_alignment_error < 0.3
     c = conjugate_direction_field((V, T), 0.1, 1.0, 10)
-    assert c.max_conjugacy_error < 1e-9
+    # exact on every face but the few released near the parabolic lines, which the warnings count
+    exact = c.conjugacy_error < 1e-9
+    assert np.mean(exact) > 0.9
+    if not exact.all():
+        assert any(f"{np.count_nonzero(~exact)} of {len(T)} triangles keep the smooth pair" in w for w in c.warnings)
     assert c.mean_conjugacy_error < c.smooth_mean_conjugacy_error
     assert c.conjugacy_error.shape == (len(T),)
 
@@ -362,3 +373,20 @@ def test_bad_options():
         conjugate_direction_field((V, T), iterations=0)
     with pytest.raises(InputError, match="curvature"):
         smooth_field(V, T, curvature=(fld.U, fld.W, np.zeros(3), np.zeros(3)))
+
+
+def test_normalization_separates_merged_singularities():
+    # a hemispherical dome with an aligned boundary: the linear solve fuses the singularities near the pole, the
+    # normalize-and-diffuse iterations spread them into four quarter-turn singularities (an O-grid layout)
+    V, T = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_dome.obj"))
+
+    def spread(f):
+        P = V[f.singularities]
+        return min(np.linalg.norm(P[i] - P[j]) for i in range(len(P)) for j in range(i))
+
+    linear = smooth_field(V, T, normalize_iterations=0)
+    spread_out = smooth_field(V, T)
+    assert sorted(spread_out.singularity_index.tolist()) == [0.25] * 4
+    assert spread(spread_out) > 2 * spread(linear)
+    with pytest.raises(InputError, match="normalize_iterations"):
+        smooth_field(V, T, normalize_iterations=-1)
