@@ -537,8 +537,13 @@ class _Boundary(NamedTuple):
     nseg: int
 
 
-def _boundary_segments(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: float, min_run: float) -> _Boundary:
-    """Label each boundary edge with the field family closest to it and group runs into segments."""
+def _boundary_segments(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: float, min_run: float,
+                       free_angle: float | None = None) -> _Boundary:
+    """Label each boundary edge with the field family closest to it and group runs into segments.
+
+    With ``free_angle`` (radians), runs of edges farther than that from both families (after merging runs
+    shorter than ``min_run``) are left unconstrained.
+    """
     n = len(V)
     bh = np.nonzero(tp.twin < 0)[0]
     key = tp.H[bh, 0]
@@ -564,15 +569,20 @@ def _boundary_segments(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: fl
         brk = np.roll(cb, 1) != ca  # edge i starts a new chain
         lab = _merge_short_runs(lab, ln, brk, min_run)
         start = brk | (np.roll(lab, 1) != lab)
+        keep = np.ones(len(hs), dtype=bool)
+        if free_angle is not None:
+            off = np.arccos(np.clip(np.maximum(cu, cw), 0.0, 1.0)) > free_angle
+            keep = ~_merge_short_runs(off.astype(np.int64), ln, brk, min_run).astype(bool)
+            start = start | (np.roll(keep, 1) != keep)
         if not start.any():
             start[0] = True
         first = int(np.argmax(start))
         sid = np.cumsum(np.roll(start, -first)) - 1
         sid = np.roll(sid, first) + nseg
         nseg += int(sid.max() - nseg + 1)
-        copies += [ca, cb]
-        coords += [lab, lab]
-        segs += [sid, sid]
+        copies += [ca[keep], cb[keep]]
+        coords += [lab[keep], lab[keep]]
+        segs += [sid[keep], sid[keep]]
     if not copies:
         z = np.zeros(0, dtype=np.int64)
         return _Boundary(z, z, z, 0)
@@ -616,7 +626,9 @@ class Parametrization(NamedTuple):
     transition functions (0 up to rounding: exact by construction), ``boundary_gap`` largest distance (grid units)
     of a boundary vertex from its integer iso-line (the stiff penalty's residual, removed by snapping except at cut
     ends),
-    ``copy (m, 3)`` vertex copy of every corner, ``warnings``, ``timings``.
+    ``copy (m, 3)`` vertex copy of every corner, ``warnings``, ``timings``, ``scale`` the global factor applied
+    (size centering × density: the iso-lines are ``target_length / scale`` apart where the field is followed
+    exactly).
     """
 
     UV: np.ndarray
@@ -632,6 +644,7 @@ class Parametrization(NamedTuple):
     copy: np.ndarray
     warnings: list
     timings: dict
+    scale: float = 1.0
 
 
 def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarray, W: np.ndarray) -> np.ndarray:
@@ -676,7 +689,8 @@ def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarra
 
 def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray, target_length: float,
                              boundary: str = "aligned", boundary_weight: float = 1e4, min_run: float = 1.5,
-                             round_batch: float = 0.1) -> Parametrization:
+                             round_batch: float = 0.1, center_sizes: bool = True, density: float = 1.0,
+                             free_angle: float | None = None) -> Parametrization:
     """Seamless integer-grid parametrization of a triangle mesh following a 4-fold direction field.
 
     Parameters
@@ -699,6 +713,16 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
         Boundary stretches shorter than ``min_run · target_length`` take the family of their neighbours.
     round_batch : float
         Fraction of the remaining integer variables rounded per greedy step (0 rounds one at a time).
+    center_sizes : bool
+        Choose the global scale (within a factor 1.25 of ``1 / target_length``) that puts the most surface area
+        under iso-line spacings within ±25% of the target, instead of the scale whose mean spacing is the target:
+        a field that cannot be followed with a constant spacing (curvature, non-integrability) stretches some
+        regions and compresses others, and the centering keeps the spread around the target.
+    density : float
+        Extra factor on the global scale (1.1 = 10% more iso-lines in each direction), applied after centering.
+    free_angle : float, optional
+        With ``boundary="aligned"``: boundary stretches farther than this angle (radians) from both field
+        families are left free instead of being forced onto an iso-line (a mixed boundary).
 
     Returns
     -------
@@ -725,6 +749,9 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     target = _check_length(target_length)
     _check_choice(boundary, BOUNDARY_MODES, "boundary")
     bw = check_number(boundary_weight, "boundary_weight", 0)
+    density = check_number(density, "density", 0, above=True)
+    if free_angle is not None:
+        free_angle = check_number(free_angle, "free_angle", 0)
     n, m = len(V), len(T)
     if U.shape != (m, 3) or W.shape != (m, 3):
         raise InputError("field", f"U and W must have shape ({m}, 3), got {U.shape} and {W.shape}")
@@ -770,7 +797,10 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     tcol = {ci: 2 * nfree + 2 * j for j, ci in enumerate(loop_cuts)}
     nt = 2 * len(loop_cuts)
     if boundary == "aligned" and bw > 0:
-        bd = _boundary_segments(V, T, tp, cuts, U, W, loops, target, min_run * target)
+        bd = _boundary_segments(V, T, tp, cuts, U, W, loops, target, min_run * target, free_angle)
+        if bd.nseg:  # renumber the segments that kept constraints
+            uq, inv = np.unique(bd.seg_id, return_inverse=True)
+            bd = bd._replace(seg_id=inv.astype(np.int64), nseg=len(uq))
     else:
         z = np.zeros(0, dtype=np.int64)
         bd = _Boundary(z, z, z, 0)
@@ -838,6 +868,13 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     t3 = time.perf_counter()
     lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
     y0 = lu.solve(b)
+    scale = 1.0
+    if center_sizes:
+        # every constraint is homogeneous, so the relaxed solution for h / s is s times this one
+        X0 = (P @ y0).reshape(2, nc).T[corner_copy]
+        scale = _centering_scale(V, T, X0, target, tp.area)
+    scale *= density
+    y0 = y0 * scale
     timings["factor_solve"] = time.perf_counter() - t3
     t4 = time.perf_counter()
     # ---- integer variables
@@ -904,7 +941,35 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     if len(cuts.right):
         resid = float(np.max(np.abs(X[cuts.right] - np.einsum("rij,rj->ri", A, X[cuts.left]) - tr)))
     return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, resid, max(gap, seam_gap), corner_copy,
-                           warnings, timings)
+                           warnings, timings, scale)
+
+
+def _centering_scale(V, T, UV, target: float, area: np.ndarray, spread: float = 0.25,
+                     limit: float = 1.25) -> float:
+    """Global factor ``s`` on the relaxed parameters maximizing the area whose iso-line spacings lie within
+    ``±spread`` of the target (ties: the factor closest to 1).
+
+    Per face the spacings are ``|∂x/∂u|`` and ``|∂x/∂v|`` (model units per unit parameter) of the affine map from
+    the parameter triangle to the surface triangle; scaling the parameters by ``s`` divides them by ``s``.
+    """
+    e1 = V[T[:, 1]] - V[T[:, 0]]
+    e2 = V[T[:, 2]] - V[T[:, 0]]
+    d1 = UV[:, 1] - UV[:, 0]
+    d2 = UV[:, 2] - UV[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    ok = det > 1e-12 * (np.abs(d1).sum(1) * np.abs(d2).sum(1) + 1e-300)
+    if np.count_nonzero(ok) < 3:
+        return 1.0
+    inv = 1.0 / det[ok]
+    # [∂x/∂u ∂x/∂v] = [e1 e2] · [d1 d2]^-1
+    xu = (e1[ok] * d2[ok, 1, None] - e2[ok] * d1[ok, 1, None]) * inv[:, None]
+    xv = (-e1[ok] * d2[ok, 0, None] + e2[ok] * d1[ok, 0, None]) * inv[:, None]
+    lens = np.concatenate([np.linalg.norm(xu, axis=1), np.linalg.norm(xv, axis=1)]) / target
+    w = np.concatenate([area[ok], area[ok]])
+    cand = np.exp(np.linspace(-np.log(limit), np.log(limit), 81))
+    score = np.array([w[np.abs(lens / c - 1.0) <= spread].sum() for c in cand])
+    best = np.nonzero(score >= score.max() * (1 - 1e-9))[0]
+    return float(cand[best[np.argmin(np.abs(np.log(cand[best])))]])
 
 
 def _greedy_round(lu, y0: np.ndarray, ints: np.ndarray, batch: float) -> np.ndarray:
@@ -1046,7 +1111,7 @@ def parametrize(mesh: Mesh, target_length: float, field: str = "conjugate", alig
     mean_err = float(np.degrees(np.sum(par.angle_error * area) / area.sum()))
     max_err = float(np.degrees(par.angle_error.max()))
     m = len(T)
-    uvV = np.concatenate([par.UV.reshape(-1, 2) * target, np.zeros((3 * m, 1))], axis=1)
+    uvV = np.concatenate([par.UV.reshape(-1, 2) * (target / par.scale), np.zeros((3 * m, 1))], axis=1)
     uvF = np.arange(3 * m, dtype=np.int64).reshape(m, 3)
     return ParametrizeResult(iso_lines(V, T, par.UV), (uvV, uvF), V[par.singularities], mean_err, max_err,
                              par.flipped, list(par.warnings))

@@ -254,3 +254,46 @@ def test_field_shape_is_checked():
     V, T = plane(4)
     with pytest.raises(InputError, match="field"):
         seamless_parametrization(V, T, np.zeros((3, 3)), np.zeros((3, 3)), 0.5)
+
+
+# ----------------------------------------------------------------------------------------------
+# size centering and density
+
+
+def test_centering_is_the_identity_when_the_field_is_followed_exactly():
+    V, T = plane(n=10, size=5.0)
+    U, W = constant_field(T, [1, 0, 0], [0, 1, 0])
+    h = 0.5
+    par = seamless_parametrization(V, T, U, W, target_length=h, boundary="free")
+    assert par.scale == 1.0
+    gu, gv = per_face_gradients(V, T, par.UV)
+    np.testing.assert_allclose(gu, np.tile([1 / h, 0, 0], (len(T), 1)), atol=1e-9)
+    # density multiplies the gradients: 10% more iso-lines in each direction
+    par = seamless_parametrization(V, T, U, W, target_length=h, boundary="free", density=1.1)
+    assert par.scale == pytest.approx(1.1)
+    gu, gv = per_face_gradients(V, T, par.UV)
+    np.testing.assert_allclose(gv, np.tile([0, 1.1 / h, 0], (len(T), 1)), atol=1e-9)
+
+
+def test_centering_scale_brings_two_spacings_within_the_band():
+    from components.parametrize import _centering_scale
+
+    # half the triangles with iso-line spacing h, half with 1.5 h: only a scale in [1.2, 1.25] puts both within ±25%
+    V, T = plane(n=10, size=5.0)
+    h = 0.5
+    P = V[T][:, :, :2]
+    left = V[T][:, :, 0].mean(1) < 2.5
+    UV = np.where(left[:, None, None], P / h, P / (1.5 * h))
+    d1, d2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    s = _centering_scale(V, T, UV, h, area)
+    assert 1.2 - 1e-9 <= s <= 1.25 + 1e-9
+    for spacing in (1.0, 1.5):
+        assert abs(spacing / s - 1.0) <= 0.25 + 1e-9
+
+
+def test_bad_density():
+    V, T = plane(n=4)
+    U, W = constant_field(T, [1, 0, 0], [0, 1, 0])
+    with pytest.raises(InputError, match="density"):
+        seamless_parametrization(V, T, U, W, target_length=1.0, density=0.0)
