@@ -502,7 +502,7 @@ class ExtractResult(NamedTuple):
 
 
 def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
-                  boundary: str = "snap") -> ExtractResult:
+                  boundary: str = "auto") -> ExtractResult:
     """Candidate quad-dominant mesh of a surface from the integer iso-lines of a field-aligned parametrization.
 
     Parameters
@@ -516,8 +516,11 @@ def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", al
     alignment : float
         Weight of the field's pull towards the principal curvature directions.
     boundary : str
-        ``"snap"`` (default: free parametrization, grid vertices near the boundary snapped onto it: whole quads
-        along the boundary), ``"aligned"`` (boundary stretches follow iso-lines) or ``"free"`` (clipped cells).
+        ``"auto"`` (default: the best of ``"snap"`` and ``"mixed"`` at three grid densities, by quad share and
+        the share of edges within ±30% of the target), ``"snap"`` (free parametrization, grid vertices near the
+        boundary snapped onto it: whole quads along the boundary), ``"mixed"`` (boundary stretches along a field
+        direction follow iso-lines, the rest snapped), ``"aligned"`` (every boundary stretch follows an
+        iso-line) or ``"free"`` (clipped cells).
 
     Returns
     -------
@@ -891,6 +894,60 @@ def _convex_quad(P: np.ndarray, max_angle: float = 160.0) -> bool:
         if not 1.0 < ang < max_angle:
             return False
     return True
+
+
+def split_large_faces(Vc: np.ndarray, Fc: np.ndarray, max_size: int = 5) -> np.ndarray:
+    """Cut quads off the polygons with more than ``max_size`` corners until none is left (no new vertices).
+
+    Large polygons appear where the parametrization folds near singularities; as panels they are useless and
+    they stall the planarization. Each step cuts off the convex quad ``(i, i+1, i+2, i+3)`` (by the diagonal
+    ``i — i+3``) whose largest corner angle is smallest (a non-convex one only when no cut gives a convex quad).
+
+    Parameters
+    ----------
+    Vc : (p, 3) float64
+        Vertices.
+    Fc : (f, k) int64
+        Faces (padded).
+    max_size : int
+        Polygons with at most this many corners are kept.
+
+    Returns
+    -------
+    (f', k') int64
+        The faces, oriented as before.
+    """
+    sizes = face_sizes(Fc)
+    if len(Fc) == 0 or sizes.max() <= max_size:
+        return Fc
+    out = []
+    for row, k in zip(Fc, sizes):
+        c = [int(v) for v in row[:k]]
+        while len(c) > max_size:
+            best, best_key = None, None
+            for i in range(len(c)):
+                q = [c[(i + j) % len(c)] for j in range(4)]
+                P = Vc[q]
+                key = (not _convex_quad(P), _max_corner_angle(P))
+                if best_key is None or key < best_key:
+                    best, best_key = i, key
+            q = [c[(best + j) % len(c)] for j in range(4)]
+            out.append(q)
+            drop = {c[(best + 1) % len(c)], c[(best + 2) % len(c)]}
+            c = [v for v in c if v not in drop]
+        out.append(c)
+    return pad_faces(out)
+
+
+def _max_corner_angle(P: np.ndarray) -> float:
+    k = len(P)
+    worst = 0.0
+    for i in range(k):
+        a = P[i - 1] - P[i]
+        b = P[(i + 1) % k] - P[i]
+        c = a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-300)
+        worst = max(worst, float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))))
+    return worst
 
 
 def _union_cycle(polys: list):

@@ -168,3 +168,25 @@ def test_snap_merges_boundary_triangles(angle):
     assert area == pytest.approx(36.0, rel=1e-2)
     P = np.einsum("pk,pkd->pd", bary, V[T[tri]])
     assert np.abs(P - Vs).max() < 1e-9
+
+
+def test_split_large_faces_cuts_quads_and_keeps_orientation():
+    from components.extract import split_large_faces
+    from components.mesh import pad_faces
+
+    t = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    oct_ = np.stack([np.cos(t), np.sin(t), np.zeros(8)], axis=1)
+    pent = np.stack([np.cos(t[:5] * 8 / 5) + 5, np.sin(t[:5] * 8 / 5), np.zeros(5)], axis=1)
+    V = np.concatenate([oct_, pent])
+    F = pad_faces([list(range(8)), list(range(8, 13))])
+    G = split_large_faces(V, F)
+    s = face_sizes(G)
+    assert sorted(s.tolist()) == [4, 4, 4, 5]
+    assert np.all(face_normals(V, G)[:, 2] > 0)  # counter-clockwise like the input
+    # the octagon's outline is kept: its 8 edges are boundary edges of the pieces, the cuts are interior
+    topo = edge_topology(G)
+    bnd = {tuple(sorted(e)) for e in topo.E[topo.count == 1].tolist()}
+    assert {tuple(sorted((i, (i + 1) % 8))) for i in range(8)} <= bnd
+    assert np.count_nonzero(topo.count == 2) == 2
+    # a mesh without large faces comes back unchanged
+    assert np.array_equal(split_large_faces(V, F[1:]), F[1:])
