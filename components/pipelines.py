@@ -23,10 +23,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.extract import quad_mesh_from_parametrization, snap_boundary
+from components.extract import quad_mesh_from_parametrization, snap_boundary, split_large_faces
 from components.mesh import InputError, check_number, edge_topology, face_sizes
 from components.parametrize import (
-    BOUNDARY_MODES,
     FIELDS,
     Parametrization,
     _check_choice,
@@ -78,8 +77,35 @@ def _irregular_vertices(V: np.ndarray, F: np.ndarray) -> int:
     return int(np.count_nonzero(~bnd & (val != 4) & (val > 0)))
 
 
+_CLOSENESS = 3.0  # planarization's closeness weight: candidates already lie on the surface, keep them near it
+_DENSITIES = (0.95, 1.0, 1.05)
+_FREE_ANGLE = np.radians(10.0)  # "mixed": boundary stretches within this angle of a field family follow an iso-line
+CANDIDATE_BOUNDARY_MODES = ("auto", "snap", "mixed", "aligned", "free")
+
+
+def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float):
+    """One parametrization + extraction with a boundary treatment (see :func:`candidate_mesh`)."""
+    pmode = {"snap": "free", "mixed": "aligned"}.get(mode, mode)
+    par = seamless_parametrization(V, T, U, W, target, boundary=pmode, density=density,
+                                   free_angle=_FREE_ANGLE if mode == "mixed" else None)
+    ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
+    if mode in ("snap", "mixed"):
+        Vx, Fx, trx, bax, _ = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target)
+        ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax)
+    return ex._replace(F=split_large_faces(ex.V, ex.F)), par
+
+
+def _score(ex, target: float) -> tuple:
+    """Ranking of candidates: ≥ 95% quads first, then the share of edges within ±30% of the target, then the
+    quad share."""
+    if len(ex.F) == 0:
+        return (False, 0.0, 0.0)
+    q = candidate_quality(ex.V, ex.F, target)
+    return (q.quad_ratio >= 0.95, q.edge_length_within, q.quad_ratio)
+
+
 def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
-                   boundary: str = "snap", constraint_faces=None, constraint_directions=None,
+                   boundary: str = "auto", constraint_faces=None, constraint_directions=None,
                    merge: float = 0.05, name: str = "mesh") -> Candidate:
     """Candidate quad mesh of a surface: field → seamless parametrization → integer iso-line extraction.
 
@@ -93,12 +119,16 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
         Direction field (see :func:`components.parametrize.direction_field`).
     alignment : float
         Weight of the field's pull towards the principal directions.
-    boundary : {"snap", "aligned", "free"}
-        ``"snap"`` (default): free-boundary parametrization, then grid vertices near the boundary are snapped onto
-        it and the boundary band relaxed (:func:`components.extract.snap_boundary`): whole quads along the
-        boundary without forcing the field to follow it. ``"aligned"``: boundary stretches follow iso-lines
-        (distorts the cells where the boundary is oblique to the field). ``"free"``: iso-lines end on the boundary
-        (clipped cells).
+    boundary : {"auto", "snap", "mixed", "aligned", "free"}
+        ``"snap"``: free-boundary parametrization, then grid vertices near the boundary are snapped onto it and
+        the boundary band relaxed (:func:`components.extract.snap_boundary`): whole quads along the boundary
+        without forcing the field to follow it. ``"mixed"``: boundary stretches within 10° of a field family
+        follow an integer iso-line, the others are free, then snapped as in ``"snap"``. ``"aligned"``: every
+        boundary stretch follows an iso-line (distorts the cells where the boundary is oblique to the field).
+        ``"free"``: iso-lines end on the boundary (clipped cells). ``"auto"`` (default): ``"snap"`` and
+        ``"mixed"`` each at 0.95, 1 and 1.05 times the centred grid density (the parametrization and extraction
+        are cheap next to the field), keeping the candidate with ≥ 95% quads and the most edges within ±30% of
+        the target length.
     constraint_faces : (c,) int, optional
         Faces of the (triangulated) input whose field direction is prescribed.
     constraint_directions : (c, 3) float, optional
@@ -123,7 +153,7 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     target = _check_length(target_length)
     _check_choice(field, FIELDS, "field")
     alignment = check_number(alignment, "alignment", 0)
-    _check_choice(boundary, BOUNDARY_MODES + ("snap",), "boundary")
+    _check_choice(boundary, CANDIDATE_BOUNDARY_MODES, "boundary")
     V, F, T, J = _triangle_mesh(mesh, name=name)
     cons = _check_constraints(constraint_faces, constraint_directions, len(T))
     _check_target_against(V, T, target)
@@ -131,14 +161,14 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons)
     timings["field"] = time.perf_counter() - t
     t = time.perf_counter()
-    par = seamless_parametrization(V, T, U, W, target, boundary="free" if boundary == "snap" else boundary)
-    timings["parametrize"] = time.perf_counter() - t
-    t = time.perf_counter()
-    ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
-    if boundary == "snap":
-        Vx, Fx, trx, bax, _ = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target)
-        ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax)
-    timings["extract"] = time.perf_counter() - t
+    if boundary == "auto":
+        tried = [_extract(V, T, U, W, target, mode, d, merge) for mode in ("snap", "mixed") for d in _DENSITIES]
+        ex, par = max(tried, key=lambda r: _score(r[0], target))
+        timings["parametrize"] = sum(p.timings["total"] for _, p in tried)
+    else:
+        ex, par = _extract(V, T, U, W, target, boundary, 1.0, merge)
+        timings["parametrize"] = par.timings["total"]
+    timings["extract"] = time.perf_counter() - t - timings["parametrize"]
     warnings = list(par.warnings)
     s = face_sizes(ex.F) if len(ex.F) else np.zeros(0, dtype=np.int64)
     quads = int(np.count_nonzero(s == 4))
@@ -212,7 +242,7 @@ class PQResult(NamedTuple):
 
 
 def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float = 0.1, planarize: bool = True,
-                            field: str = "conjugate", boundary: str = "snap",
+                            field: str = "conjugate", boundary: str = "auto",
                             constraint_faces: Integers | None = None, constraint_directions: Vectors | None = None,
                             tolerance: float = 1e-4, time_budget: float = 30.0) -> PQResult:
     """Planar-quad panelling of a free-form surface along a conjugate direction field.
@@ -231,9 +261,12 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     field : str
         ``"conjugate"`` (default), ``"smooth"`` (not conjugate, for comparison) or ``"principal"``.
     boundary : str
-        ``"snap"`` (default: panel lines follow the field, grid vertices near the boundary are moved onto it so the
-        boundary row is whole panels), ``"aligned"`` (boundary stretches follow the panel lines; distorts panels
-        where the boundary is oblique to the field) or ``"free"`` (panel lines end on the boundary: clipped cells).
+        ``"auto"`` (default: the best of ``"snap"`` and ``"mixed"`` at three grid densities, by quad share and
+        the share of edges within ±30% of the target), ``"snap"`` (panel lines follow the field, grid vertices
+        near the boundary are moved onto it so the boundary row is whole panels), ``"mixed"`` (boundary stretches
+        along a panel direction follow a panel line, the rest snapped), ``"aligned"`` (every boundary stretch
+        follows a panel line; distorts panels where the boundary is oblique to the field) or ``"free"`` (panel
+        lines end on the boundary: clipped cells).
     constraint_faces : Integers | None
         Optional faces (of the triangulated input) whose field direction is prescribed.
     constraint_directions : Vectors | None
@@ -313,7 +346,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
 
         try:
             res = planarize_mesh(V, F, reference=(Vin, cand.T), tolerance=tol, time_budget=budget,
-                                 boundary="slide", mesh_name="candidate")
+                                 boundary="slide", closeness_weight=_CLOSENESS, mesh_name="candidate")
         except (RuntimeError, np.linalg.LinAlgError) as exc:  # a solver failure must not lose the candidate
             log.warning("planarization failed on the candidate: %s", exc)
             res = None
