@@ -227,6 +227,21 @@ def _factor(A: sp.spmatrix):
                 options={"SymmetricMode": True})
 
 
+def _pinned_solver(A, free: np.ndarray, c: np.ndarray):
+    """Factor ``A`` on the ``free`` faces once; returns ``b ↦`` the solution with the other entries kept at ``c``."""
+    if free.all():
+        lu, fixed = _factor(A), 0.0
+    else:
+        lu, fixed = _factor(A[free][:, free]), A[free][:, ~free] @ c[~free]
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        out = c.copy()
+        out[free] = lu.solve(b[free] - fixed)
+        return out
+
+    return solve
+
+
 def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, guess=None):
     """Minimize ``cᴴ L c + Σ w |c − t|²`` with optional pinned values; returns the coefficient per face.
 
@@ -240,18 +255,11 @@ def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, gu
         free[pinned[0]] = False
         c[pinned[0]] = pinned[1]
     A = (L + sp.diags(wface.astype(complex))).tocsr()
-    b = wface * target
-    if not free.all():
-        Aff = A[free][:, free]
-        b = b[free] - A[free][:, ~free] @ c[~free]
-    else:
-        Aff = A
     if np.any(wface[free] > 0) or not free.all():
-        c[free] = _factor(Aff).solve(b)
-        return c
+        return _pinned_solver(A, free, c)(wface * target)
     # no data at all: inverse iteration on the (slightly shifted) Laplacian
     scale = float(np.abs(L.diagonal()).mean()) or 1.0
-    lu = _factor(Aff + sp.identity(m, format="csr") * (1e-8 * scale))
+    lu = _factor(A + sp.identity(m, format="csr") * (1e-8 * scale))
     rng = np.random.default_rng(0)
     x = rng.standard_normal(m) + 1j * rng.standard_normal(m) if guess is None else guess.astype(complex)
     for _ in range(30):
@@ -268,22 +276,16 @@ def _spread_singularities(L, w: np.ndarray, t: np.ndarray, pinned, X: np.ndarray
     field and ``μ_f = A_f / ε²``, ``ε`` = ``core`` mean triangle sizes: the Ginzburg–Landau core radius, so the
     magnitude may only vanish within about ``ε`` of a singularity.
     """
-    m = len(X)
     eps = core * float(np.sqrt(2.0 * area.mean()))
     mu = area / (eps * eps)
-    free = np.ones(m, dtype=bool)
+    free = np.ones(len(X), dtype=bool)
     if pinned is not None and len(pinned[0]):
         free[pinned[0]] = False
-    A = (L + sp.diags((w + mu).astype(complex))).tocsr()
-    Aff = A[free][:, free]
-    fixed_rhs = A[free][:, ~free] @ X[~free] if not free.all() else 0.0
-    lu = _factor(Aff)
+    solve = _pinned_solver((L + sp.diags((w + mu).astype(complex))).tocsr(), free, X)
     wt = w * t
     for _ in range(iterations):
         a = np.abs(X)
-        Xn = np.divide(X, a, out=np.ones_like(X), where=a > 0)
-        X = X.copy()
-        X[free] = lu.solve((wt + mu * Xn)[free] - fixed_rhs)
+        X = solve(wt + mu * np.divide(X, a, out=np.ones_like(X), where=a > 0))
     return X
 
 
@@ -716,48 +718,45 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     wc = conjugacy_weight * _AREA_SCALE * share * _conjugacy_weights(cv)
     w0 = closeness * _AREA_SCALE * share
     active = _conjugacy_weights(cv) > 0
-    luX = _factor(smoothness * _connection_laplacian(dg, m, 4) + sp.diags((wc + w0).astype(complex)))
-    luY = _factor(smoothness * _connection_laplacian(dg, m, 2) + sp.diags((wc + w0).astype(complex)))
-    u, v = u0, v0
-    a = None
-    for it in range(iterations):
-        pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
-        pu = np.where(active, pu, u)
-        pv = np.where(active, pv, v)
+    LX = smoothness * _connection_laplacian(dg, m, 4)
+    LY = smoothness * _connection_laplacian(dg, m, 2)
+
+    def local_global(u, v, a, wc, active, count):
+        """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve."""
+        luX = _factor(LX + sp.diags((wc + w0).astype(complex)))
+        luY = _factor(LY + sp.diags((wc + w0).astype(complex)))
+        for _ in range(count):
+            pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+            pu = np.where(active, pu, u)
+            pv = np.where(active, pv, v)
+            if fixed is not None:
+                pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
+            Xp, Yp = _poly(pu, pv)
+            X = luX.solve(wc * Xp + w0 * X0)
+            Y = luY.solve(wc * Yp + w0 * Y0)
+            u, v = _roots(X, Y)
+        pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+        return u, v, a, pu, pv
+
+    def far(pu, pv, u, v, active):
+        """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle."""
+        out = active & (_pair_deviation(pu, pv, u, v) > release_angle)
         if fixed is not None:
-            pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
-        Xp, Yp = _poly(pu, pv)
-        X = luX.solve(wc * Xp + w0 * X0)
-        Y = luY.solve(wc * Yp + w0 * Y0)
-        u, v = _roots(X, Y)
-    pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+            out[fixed[0]] = False
+        return out
+
+    u, v, a, pu, pv = local_global(u0, v0, None, wc, active, iterations)
     released = np.zeros(m, dtype=bool)
     if release_angle is not None:
         # faces whose closest conjugate pair is far from the smoothed pair (parabolic lines, where conjugate pairs
         # collapse onto the asymptotic direction, or a jump to the other branch) would fold the field: they are
         # released from conjugacy and the global step re-run so the field passes them smoothly
-        released = active & (_pair_deviation(pu, pv, u, v) > release_angle)
-        if fixed is not None:
-            released[fixed[0]] = False
+        released = far(pu, pv, u, v, active)
         if released.any():
             wc = np.where(released, 0.0, wc)
             active = active & ~released
-            luX = _factor(smoothness * _connection_laplacian(dg, m, 4) + sp.diags((wc + w0).astype(complex)))
-            luY = _factor(smoothness * _connection_laplacian(dg, m, 2) + sp.diags((wc + w0).astype(complex)))
-            for it in range(max(1, iterations // 4)):
-                pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
-                pu = np.where(active, pu, u)
-                pv = np.where(active, pv, v)
-                if fixed is not None:
-                    pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
-                Xp, Yp = _poly(pu, pv)
-                X = luX.solve(wc * Xp + w0 * X0)
-                Y = luY.solve(wc * Yp + w0 * Y0)
-                u, v = _roots(X, Y)
-            pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
-            late = active & (_pair_deviation(pu, pv, u, v) > release_angle)
-            if fixed is not None:
-                late[fixed[0]] = False
+            u, v, a, pu, pv = local_global(u, v, a, wc, active, max(1, iterations // 4))
+            late = far(pu, pv, u, v, active)
             released |= late
             active = active & ~late
     u = np.where(active, pu, u)
