@@ -647,6 +647,22 @@ class Parametrization(NamedTuple):
     scale: float = 1.0
 
 
+def _parameter_tangents(V: np.ndarray, T: np.ndarray, UV: np.ndarray, eps: float = 0.0):
+    """Per face ``∂x/∂u, ∂x/∂v`` (the columns of ``[e1 e2] · [d1 d2]⁻¹``), the parameter triangle's doubled
+    signed area ``det`` and its scale ``|d1|₁ |d2|₁``; faces with ``|det| ≤ eps`` get tangents as if ``det`` were
+    1 (callers mask them)."""
+    e1 = V[T[:, 1]] - V[T[:, 0]]
+    e2 = V[T[:, 2]] - V[T[:, 0]]
+    d1 = UV[:, 1] - UV[:, 0]
+    d2 = UV[:, 2] - UV[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    safe = np.where(np.abs(det) > eps, det, 1.0)[:, None]
+    # x_u = (e1 d2v - e2 d1v) / det, x_v = (-e1 d2u + e2 d1u) / det
+    xu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) / safe
+    xv = (-e1 * d2[:, 0:1] + e2 * d1[:, 0:1]) / safe
+    return xu, xv, det, np.abs(d1).sum(1) * np.abs(d2).sum(1)
+
+
 def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarray, W: np.ndarray) -> np.ndarray:
     """Per-face angle (radians) between the parametrization's iso-lines and the field directions.
 
@@ -667,17 +683,8 @@ def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarra
     (m,) float64
         Angle in radians (π/2 for a degenerate parameter triangle).
     """
-    P = V[T]
-    e1 = P[:, 1] - P[:, 0]
-    e2 = P[:, 2] - P[:, 0]
-    d1 = UV[:, 1] - UV[:, 0]
-    d2 = UV[:, 2] - UV[:, 0]
-    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    xu, xv, det, _ = _parameter_tangents(V, T, UV, eps=1e-14)
     ok = np.abs(det) > 1e-14
-    det = np.where(ok, det, 1.0)
-    # x_u = (e1 d2v - e2 d1v) / det, x_v = (-e1 d2u + e2 d1u) / det
-    xu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) / det[:, None]
-    xv = (-e1 * d2[:, 0:1] + e2 * d1[:, 0:1]) / det[:, None]
 
     def line_angle(a, b):
         c = np.abs(np.einsum("ij,ij->i", _unit(a), _unit(b)))
@@ -952,19 +959,11 @@ def _centering_scale(V, T, UV, target: float, area: np.ndarray, spread: float = 
     Per face the spacings are ``|∂x/∂u|`` and ``|∂x/∂v|`` (model units per unit parameter) of the affine map from
     the parameter triangle to the surface triangle; scaling the parameters by ``s`` divides them by ``s``.
     """
-    e1 = V[T[:, 1]] - V[T[:, 0]]
-    e2 = V[T[:, 2]] - V[T[:, 0]]
-    d1 = UV[:, 1] - UV[:, 0]
-    d2 = UV[:, 2] - UV[:, 0]
-    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-    ok = det > 1e-12 * (np.abs(d1).sum(1) * np.abs(d2).sum(1) + 1e-300)
+    xu, xv, det, size = _parameter_tangents(V, T, UV, eps=1e-300)
+    ok = det > 1e-12 * (size + 1e-300)
     if np.count_nonzero(ok) < 3:
         return 1.0
-    inv = 1.0 / det[ok]
-    # [∂x/∂u ∂x/∂v] = [e1 e2] · [d1 d2]^-1
-    xu = (e1[ok] * d2[ok, 1, None] - e2[ok] * d1[ok, 1, None]) * inv[:, None]
-    xv = (-e1[ok] * d2[ok, 0, None] + e2[ok] * d1[ok, 0, None]) * inv[:, None]
-    lens = np.concatenate([np.linalg.norm(xu, axis=1), np.linalg.norm(xv, axis=1)]) / target
+    lens = np.concatenate([np.linalg.norm(xu[ok], axis=1), np.linalg.norm(xv[ok], axis=1)]) / target
     w = np.concatenate([area[ok], area[ok]])
     cand = np.exp(np.linspace(-np.log(limit), np.log(limit), 81))
     score = np.array([w[np.abs(lens / c - 1.0) <= spread].sum() for c in cand])
