@@ -32,6 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from components.mesh import edge_topology, face_sizes, pad_faces
+from components.planarize_geometry import corner_angles
 from components.types import Mesh
 
 log = logging.getLogger(__name__)
@@ -924,30 +925,15 @@ def split_large_faces(Vc: np.ndarray, Fc: np.ndarray, max_size: int = 5) -> np.n
     for row, k in zip(Fc, sizes):
         c = [int(v) for v in row[:k]]
         while len(c) > max_size:
-            best, best_key = None, None
-            for i in range(len(c)):
-                q = [c[(i + j) % len(c)] for j in range(4)]
-                P = Vc[q]
-                key = (not _convex_quad(P), _max_corner_angle(P))
-                if best_key is None or key < best_key:
-                    best, best_key = i, key
-            q = [c[(best + j) % len(c)] for j in range(4)]
-            out.append(q)
-            drop = {c[(best + 1) % len(c)], c[(best + 2) % len(c)]}
+            n = len(c)
+            quads = np.asarray([[c[(i + j) % n] for j in range(4)] for i in range(n)], dtype=np.int64)
+            worst = corner_angles(Vc, quads).reshape(n, 4).max(axis=1)
+            best = min(range(n), key=lambda i: (not _convex_quad(Vc[quads[i]]), worst[i]))
+            out.append(quads[best].tolist())
+            drop = {c[(best + 1) % n], c[(best + 2) % n]}
             c = [v for v in c if v not in drop]
         out.append(c)
     return pad_faces(out)
-
-
-def _max_corner_angle(P: np.ndarray) -> float:
-    k = len(P)
-    worst = 0.0
-    for i in range(k):
-        a = P[i - 1] - P[i]
-        b = P[(i + 1) % k] - P[i]
-        c = a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-300)
-        worst = max(worst, float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))))
-    return worst
 
 
 def _union_cycle(polys: list):
