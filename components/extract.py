@@ -936,6 +936,87 @@ def split_large_faces(Vc: np.ndarray, Fc: np.ndarray, max_size: int = 5) -> np.n
     return pad_faces(out)
 
 
+def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: np.ndarray, grid: np.ndarray,
+                         target_length: float, ratio: float = 0.25):
+    """Collapse the candidate's edges shorter than ``ratio · target_length`` (shortest first, one per vertex per pass).
+
+    Short edges are left where the boundary snapping and relaxation bring two boundary vertices together, or where
+    iso-lines cross almost at one point; as panels they are slivers (a quad with a short edge is a triangle with a
+    T-vertex), and a quad whose short boundary edge is straightened by the planarization's boundary sliding
+    degenerates and blocks the solver. The kept end is the more constrained one (a sharp corner of the outline,
+    then a boundary vertex, then a grid vertex); an edge is skipped where collapsing it would pinch the mesh (both
+    ends on the boundary across the inside, or common neighbours other than the apexes of triangles on the edge)
+    or merge two outline corners (a face corner of valence 2 joined to a boundary vertex of higher valence by a
+    short boundary edge is not a second corner: it goes). Quads on the edge become triangles.
+
+    Parameters
+    ----------
+    Vc, Fc, tri, bary, grid
+        The candidate (as returned by :func:`quad_mesh_from_parametrization` / :func:`snap_boundary`).
+    target_length : float
+        Grid spacing in model units.
+    ratio : float
+        Edges shorter than ``ratio · target_length`` are collapsed.
+
+    Returns
+    -------
+    V, F, tri, bary, grid
+        The new candidate (same conventions).
+    """
+    h = float(target_length)
+    for _ in range(3):
+        if len(Fc) == 0:
+            break
+        topo, onb, fixed = _boundary_turns(Vc, Fc)
+        E = topo.E
+        L = np.linalg.norm(Vc[E[:, 1]] - Vc[E[:, 0]], axis=1)
+        short = np.nonzero(L < ratio * h)[0]
+        if not len(short):
+            break
+        nv = len(Vc)
+        nbrs = [set() for _ in range(nv)]
+        for a, b in E.tolist():
+            nbrs[a].add(b)
+            nbrs[b].add(a)
+        sizes = face_sizes(Fc)
+        apex: dict = {}
+        for row, k in zip(Fc, sizes):
+            if k == 3:
+                c = row[:3].tolist()
+                for i in range(3):
+                    a, b = c[i], c[(i + 1) % 3]
+                    apex.setdefault((min(a, b), max(a, b)), set()).add(c[(i + 2) % 3])
+        rank = fixed.astype(int) * 4 + onb.astype(int) * 2 + grid.astype(int)
+        lab = np.arange(nv)
+        touched = np.zeros(nv, dtype=bool)
+        Vn = Vc.copy()
+        done = 0
+        for e in short[np.argsort(L[short], kind="stable")]:
+            a, b = (int(x) for x in E[e])
+            if touched[a] or touched[b]:
+                continue
+            if onb[a] and onb[b] and topo.count[e] != 1:
+                continue
+            if (nbrs[a] & nbrs[b]) != apex.get((min(a, b), max(a, b)), set()):
+                continue
+            if fixed[a] and fixed[b]:
+                # two "corners" joined by a short boundary edge: the turn measured across a short edge is
+                # unreliable, and the corner of a face (valence 2) is the end that goes; real corner pairs stay
+                if topo.count[e] != 1 or (len(nbrs[a]) > 2) == (len(nbrs[b]) > 2):
+                    continue
+                keep, gone = (a, b) if len(nbrs[a]) > 2 else (b, a)
+            else:
+                keep, gone = (a, b) if rank[a] >= rank[b] else (b, a)
+            lab[gone] = keep
+            touched[[a, b]] = True
+            touched[list(nbrs[a] | nbrs[b])] = True  # one collapse per neighbourhood per pass
+            done += 1
+        if not done:
+            break
+        Vc, Fc, tri, bary, grid = _relabel(Vn, Fc, tri, bary, grid, lab)
+    return Vc, Fc, tri, bary, grid
+
+
 def _union_cycle(polys: list):
     """Outline of the union of adjacent polygons (one cycle of vertices) or None if it is not one simple cycle."""
     he = {}

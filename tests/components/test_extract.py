@@ -190,3 +190,51 @@ def test_split_large_faces_cuts_quads_and_keeps_orientation():
     assert np.count_nonzero(topo.count == 2) == 2
     # a mesh without large faces comes back unchanged
     assert np.array_equal(split_large_faces(V, F[1:]), F[1:])
+
+
+def _grid_quads(k):
+    x, y = np.meshgrid(np.arange(k + 1.0), np.arange(k + 1.0))
+    V = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1)
+    idx = np.arange((k + 1) ** 2).reshape(k + 1, k + 1)
+    F = np.stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()], axis=1)
+    return V, F
+
+
+def _collapse(V, F, h=1.0):
+    from components.extract import collapse_short_edges
+
+    n = len(V)
+    return collapse_short_edges(V, F, np.arange(n), np.zeros((n, 3)), np.ones(n, dtype=bool), h)
+
+
+def test_collapse_short_edges_interior_edge():
+    V, F = _grid_quads(4)
+    V[12] = V[13] + [-0.1, 0.0, 0.0]  # centre vertex 0.1 from its right neighbour
+    V2, F2, tri, bary, grid = _collapse(V, F)
+    validate_mesh(V2, F2)
+    assert len(V2) == len(V) - 1 and len(tri) == len(bary) == len(grid) == len(V2)
+    s = face_sizes(F2)
+    assert np.count_nonzero(s == 3) == 2 and np.count_nonzero(s == 4) == 14  # the two quads on the edge
+    E = edge_topology(F2).E
+    assert np.linalg.norm(V2[E[:, 1]] - V2[E[:, 0]], axis=1).min() > 0.25
+    assert np.all(face_normals(V2, F2)[:, 2] > 0)
+    # nothing short: unchanged
+    V3, F3, *_ = _collapse(*_grid_quads(3))
+    assert len(V3) == 16 and np.array_equal(F3, _grid_quads(3)[1])
+
+
+def test_collapse_short_edges_boundary_corner_of_a_face():
+    # a pentagon whose extra corner sits 0.05 beside a boundary vertex on the straight top boundary (the
+    # inspired_mesh case that blocked the planarization): the corner goes, the pentagon becomes a quad
+    from components.mesh import pad_faces
+
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [1.05, 1, 0], [2, 1, 0]], dtype=float)
+    F = pad_faces([[0, 1, 4, 3], [1, 2, 6, 5, 4]])
+    V2, F2, *_ = _collapse(V, F)
+    validate_mesh(V2, F2)
+    assert len(V2) == 6 and sorted(face_sizes(F2).tolist()) == [4, 4]
+    # a short edge across the inside between two boundary vertices would pinch the mesh: kept
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 0.1, 0], [2, 1, 0]], dtype=float)
+    F = np.array([[0, 1, 4, 3], [1, 2, 5, 4]])
+    V2, F2, *_ = _collapse(V, F)
+    assert len(V2) == 6 and np.array_equal(F2, F)
