@@ -610,7 +610,8 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
                     iterations: int = 40, conjugacy_weight: float = 3.0, closeness: float = 0.01,
                     min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,
                     curvature: FieldCurvature | None = None, curvature_radius: int = 2,
-                    release_angle: float | None = np.radians(20.0)) -> Field:
+                    release_angle: float | None = np.radians(20.0),
+                    release_separation: float = np.radians(45.0)) -> Field:
     """Conjugate direction field near a given field: local-global alternation of Liu et al. 2011.
 
     Parameters
@@ -650,6 +651,12 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
         direction and the pair there is either squeezed to ``min_angle`` or jumps to the other branch; forcing it
         folds the field and the parametrization (inverted triangles, stretched panels). ``None``: never release.
         The released faces are returned in ``Field.released``.
+    release_separation : float
+        With ``release_angle`` set, faces whose closest conjugate pair is narrower than this angle (radians) are
+        released too. Where a pair narrows (towards a parabolic line, conjugate partners close in on the
+        asymptotic direction) the pair turns quickly from face to face: the field is far from integrable there
+        and the parametrization compresses or folds (on the ``wave`` sample: pairs down to the 25° bound, eight
+        singularities instead of two, stretched rows of panels along the boundary; 0 disables).
 
     Returns
     -------
@@ -690,6 +697,7 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     min_angle = check_number(min_angle, "min_angle", 0)
     if release_angle is not None:
         release_angle = check_number(release_angle, "release_angle", 0)
+    release_separation = check_number(release_separation, "release_separation", 0)
     if min_angle >= 0.5 * np.pi:
         raise InputError("min_angle", f"must be below π/2, got {min_angle!r}")
     fr = face_frames(V, T)
@@ -739,8 +747,10 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
         return u, v, a, pu, pv
 
     def far(pu, pv, u, v, active):
-        """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle."""
-        out = active & (_pair_deviation(pu, pv, u, v) > release_angle)
+        """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle or narrower than
+        the release separation."""
+        narrow = np.abs(np.angle((pu * np.conj(pv)) ** 2)) / 2.0 < release_separation
+        out = active & ((_pair_deviation(pu, pv, u, v) > release_angle) | narrow)
         if fixed is not None:
             out[fixed[0]] = False
         return out
@@ -967,4 +977,4 @@ def _release_warnings(fld: Field, m: int) -> list[str]:
     if not k:
         return []
     return [f"{k} of {m} triangles keep the smooth pair instead of a conjugate one (their closest conjugate pair "
-            f"would fold the field: parabolic lines or a branch jump); conjugacy_error shows them"]
+            f"would fold the field or be too narrow: parabolic lines or a branch jump); conjugacy_error shows them"]

@@ -213,7 +213,7 @@ def _check_constraints(constraint_faces, constraint_directions, m: int):
 
 
 def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alignment: float = 0.1,
-                    constraints=None) -> tuple[np.ndarray, np.ndarray]:
+                    constraints=None, release_separation: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per-face field directions ``U, W`` for the parametrization, from :mod:`components.fields` when present.
 
     Parameters
@@ -231,6 +231,8 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
         Weight of the pull towards the principal directions (smaller = smoother, fewer singularities).
     constraints : tuple (faces (c,), directions (c, 3)), optional
         Prescribed directions on some faces.
+    release_separation : float, optional
+        Passed to ``fields.conjugate_field`` (its default when omitted).
 
     Returns
     -------
@@ -246,7 +248,8 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
     if fields is not None and hasattr(fields, "smooth_field"):
         fld = fields.smooth_field(V, T, alignment=alignment, constraints=constraints)
         if field == "conjugate" and hasattr(fields, "conjugate_field"):
-            fld = fields.conjugate_field(V, T, fld.U, fld.W, constraints=constraints)
+            extra = {} if release_separation is None else {"release_separation": release_separation}
+            fld = fields.conjugate_field(V, T, fld.U, fld.W, constraints=constraints, **extra)
         return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
     return _fallback_field(V, T, alignment, constraints)
 

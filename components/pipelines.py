@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.extract import quad_mesh_from_parametrization, snap_boundary, split_large_faces
+from components.extract import collapse_short_edges, quad_mesh_from_parametrization, snap_boundary, split_large_faces
 from components.mesh import InputError, check_number, edge_topology, face_sizes
 from components.parametrize import (
     FIELDS,
@@ -90,9 +90,11 @@ def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float)
                                    free_angle=_FREE_ANGLE if mode == "mixed" else None)
     ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
     if mode in ("snap", "mixed"):
-        Vx, Fx, trx, bax, _ = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target)
-        ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax)
-    return ex._replace(F=split_large_faces(ex.V, ex.F)), par
+        Vx, Fx, trx, bax, grx = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target)
+        ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx)
+    Vx, Fx, trx, bax, grx = collapse_short_edges(ex.V, split_large_faces(ex.V, ex.F), ex.tri, ex.bary, ex.grid,
+                                                 target)
+    return ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx), par
 
 
 def _score(ex, target: float) -> tuple:
@@ -106,7 +108,7 @@ def _score(ex, target: float) -> tuple:
 
 def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
                    boundary: str = "auto", constraint_faces=None, constraint_directions=None,
-                   merge: float = 0.05, name: str = "mesh") -> Candidate:
+                   merge: float = 0.05, name: str = "mesh", release_separation: float | None = None) -> Candidate:
     """Candidate quad mesh of a surface: field → seamless parametrization → integer iso-line extraction.
 
     Parameters
@@ -137,6 +139,9 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
         Candidate vertices closer than ``merge · target_length`` are merged.
     name : str
         Name of the mesh input in error messages.
+    release_separation : float, optional
+        Conjugate field: faces whose conjugate pair is narrower than this (radians) keep the smooth pair
+        (``fields.conjugate_field``; its default 45° when omitted, 0 never).
 
     Returns
     -------
@@ -158,7 +163,8 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     cons = _check_constraints(constraint_faces, constraint_directions, len(T))
     _check_target_against(V, T, target)
     t = time.perf_counter()
-    U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons)
+    U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons,
+                           release_separation=release_separation)
     timings["field"] = time.perf_counter() - t
     t = time.perf_counter()
     if boundary == "auto":

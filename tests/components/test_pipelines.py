@@ -1,8 +1,4 @@
-"""End-to-end: surface + panel size → candidate quad mesh (issue 6 done-when list) and its planarization.
-
-Targets that the current field/parametrization does not reach yet are marked ``xfail`` (not strict) with the
-measured reason, so they turn green without edits when the conjugate field lands.
-"""
+"""End-to-end: surface + panel size → candidate quad mesh (issue 6 done-when list) and its planarization."""
 from __future__ import annotations
 
 import numpy as np
@@ -21,14 +17,6 @@ from components.pipelines import candidate_mesh, candidate_quality, pq_from_conj
 from components.proximity import closest_points
 from components.samples import sample_mesh
 from tests.conftest import shared_file
-
-try:
-    from components import fields as _fields
-
-    HAS_CONJUGATE = hasattr(_fields, "conjugate_field")
-except ImportError:  # pragma: no cover
-    HAS_CONJUGATE = False
-
 
 def target_for(V, F, quads):
     T, _ = triangulate(F)
@@ -56,21 +44,15 @@ def check_candidate(V, F, cand, h, quads=True):
 
 
 SAMPLES = ["dome", "saddle", "wave", "canopy"]
-QUAD_XFAIL: dict = {}
-EDGE_XFAIL = {"wave": "86% of edges within ±30%: along the parabolic lines the field is released from conjugacy, "
-                      "but the parametrization still folds there (23 inverted parameter triangles, angle error 11°)"}
 
 
 @pytest.mark.parametrize("name", SAMPLES)
-def test_sample_candidates(name, request):
+def test_sample_candidates(name):
     V, T, _ = sample_mesh(name, 32)
     h = target_for(V, T, 300)
     cand = candidate_mesh((V, T), h)
     q = check_candidate(V, T, cand, h, quads=False)
     assert cand.mean_angle_error < 20
-    if (name in EDGE_XFAIL and q.edge_length_within < 0.9) or (name in QUAD_XFAIL and q.quad_ratio < 0.95):
-        request.applymarker(pytest.mark.xfail(reason="; ".join(r for r in (EDGE_XFAIL.get(name), QUAD_XFAIL.get(name)) if r),
-                                              strict=False))
     assert q.quad_ratio >= 0.95
     assert q.edge_length_within >= 0.9
 
@@ -80,24 +62,16 @@ REAL = [("libigl/inspired_mesh.obj", 1600), ("libigl/lilium.obj", 800),
 
 
 @pytest.mark.parametrize("path,quads", REAL)
-def test_real_mesh_candidates(path, quads, request):
+def test_real_mesh_candidates(path, quads):
     V, F = read_mesh(shared_file("meshes/" + path))
     h = target_for(V, F, quads)
     cand = candidate_mesh((V, F), h)
     q = check_candidate(V, F, cand, h, quads=False)
-    if q.quad_ratio < 0.95:
-        request.applymarker(pytest.mark.xfail(
-            reason=f"{100 * q.quad_ratio:.1f}% quads (triangles where the boundary meets the field obliquely or "
-                   f"turns sharply)", strict=False))
     assert q.quad_ratio >= 0.95
-    if q.edge_length_within < 0.9:
-        request.applymarker(pytest.mark.xfail(
-            reason=f"{100 * q.edge_length_within:.1f}% of edges within ±30% (field scale distortion)",
-            strict=False))
     assert q.edge_length_within >= 0.9
 
 
-def test_inspired_mesh_conjugate_beats_libigl_and_smooth(request):
+def test_inspired_mesh_conjugate_beats_libigl_and_smooth():
     V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
     h = target_for(V, F, 1600)
     conj = candidate_mesh((V, F), h, field="conjugate")
@@ -105,10 +79,6 @@ def test_inspired_mesh_conjugate_beats_libigl_and_smooth(request):
     qc = candidate_quality(conj.V, conj.F, h)
     qs = candidate_quality(smooth.V, smooth.F, h)
     assert 1400 <= conj.quads <= 1800
-    if not HAS_CONJUGATE or qc.mean_planarity >= 2.8e-3:
-        request.applymarker(pytest.mark.xfail(
-            reason=f"conjugate field not available or not conjugate enough yet: mean planarity {qc.mean_planarity:.2e}",
-            strict=False))
     assert qc.mean_planarity < 2.8e-3  # libigl's conjugate remesh: 2.8e-3 mean
     assert qc.mean_planarity < qs.mean_planarity
 
@@ -127,16 +97,11 @@ def test_dome_planarizes_close_to_the_surface():
     assert res.quad_ratio >= 0.95 and res.time_planarize > 0
 
 
-PLANARIZE_XFAIL: dict = {}  # wave reaches 9.0e-5 since large polygons are cut into quads
-
-
 @pytest.mark.parametrize("name", ["saddle", "wave", "canopy"])
-def test_other_samples_planarize(name, request):
+def test_other_samples_planarize(name):
     V, T, _ = sample_mesh(name, 32)
     h = target_for(V, T, 300)
     res = pq_from_conjugate_field((V, T), h, time_budget=10.0)
-    if res.planarized_max_planarity > 1e-4 and name in PLANARIZE_XFAIL:
-        request.applymarker(pytest.mark.xfail(reason=PLANARIZE_XFAIL[name], strict=False))
     assert res.planarized_max_planarity <= 1e-4
     Vp, Fp = res.planarized
     E = np.concatenate([np.stack([Fp[:, i], Fp[:, (i + 1) % Fp.shape[1]]], 1) for i in range(Fp.shape[1])])
