@@ -198,3 +198,14 @@ def test_bad_options(disk):
         pq_from_conjugate_field(disk, 3.0, field="wavy")
     with pytest.raises(InputError, match="tolerance"):
         pq_from_conjugate_field(disk, 3.0, tolerance=-1.0)
+    with pytest.raises(InputError, match="closeness_weight"):
+        pq_from_conjugate_field(disk, 3.0, closeness_weight=-1.0)
+
+
+def test_closeness_weight_keeps_the_panels_nearer_the_surface():
+    V, T, _ = sample_mesh("wave", 32)
+    h = target_for(V, T, 300)
+    loose = pq_from_conjugate_field((V, T), h, closeness_weight=1.0)
+    tight = pq_from_conjugate_field((V, T), h, closeness_weight=30.0)
+    assert max(loose.planarized_max_planarity, tight.planarized_max_planarity) <= 1e-4
+    assert tight.mean_closeness < 0.6 * loose.mean_closeness
