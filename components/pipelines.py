@@ -23,8 +23,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.extract import collapse_short_edges, quad_mesh_from_parametrization, snap_boundary, split_large_faces
+from components.extract import (
+    collapse_short_edges,
+    quad_mesh_from_parametrization,
+    relax_edge_lengths,
+    snap_boundary,
+    split_large_faces,
+)
 from components.mesh import InputError, check_number, edge_topology, face_sizes
+from components.proximity import TriangleIndex
 from components.parametrize import (
     FIELDS,
     Parametrization,
@@ -82,7 +89,7 @@ _FREE_ANGLE = np.radians(10.0)  # "mixed": boundary stretches within this angle 
 CANDIDATE_BOUNDARY_MODES = ("auto", "snap", "mixed", "aligned", "free")
 
 
-def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float):
+def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float, index=None):
     """One parametrization + extraction with a boundary treatment (see :func:`candidate_mesh`)."""
     pmode = {"snap": "free", "mixed": "aligned"}.get(mode, mode)
     par = seamless_parametrization(V, T, U, W, target, boundary=pmode, density=density,
@@ -93,16 +100,17 @@ def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float)
         ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx)
     Vx, Fx, trx, bax, grx = collapse_short_edges(ex.V, split_large_faces(ex.V, ex.F), ex.tri, ex.bary, ex.grid,
                                                  target)
+    Vx, trx, bax = relax_edge_lengths(V, T, Vx, Fx, trx, bax, target, index=index)
     return ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx), par
 
 
 def _score(ex, target: float) -> tuple:
-    """Ranking of candidates: ≥ 95% quads first, then the share of edges within ±30% of the target, then the
-    quad share."""
+    """Ranking of candidates: ≥ 95% quads first, then the share of edges within ±30% of the target (counted up
+    to 95%), then the mean edge length nearest the target (the panel count the user asked for)."""
     if len(ex.F) == 0:
         return (False, 0.0, 0.0)
     q = candidate_quality(ex.V, ex.F, target)
-    return (q.quad_ratio >= 0.95, q.edge_length_within, q.quad_ratio)
+    return (q.quad_ratio >= 0.95, min(q.edge_length_within, 0.95), -abs(q.mean_edge_length / target - 1.0))
 
 
 def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
@@ -129,7 +137,10 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
         ``"free"``: iso-lines end on the boundary (clipped cells). ``"auto"`` (default): ``"snap"`` and
         ``"mixed"`` each at 0.95, 1 and 1.05 times the centred grid density (the parametrization and extraction
         are cheap next to the field), keeping the candidate with ≥ 95% quads and the most edges within ±30% of
-        the target length.
+        the target length (counted up to 95%), then the one whose mean edge is nearest the target. Every
+        candidate's short edges and degenerate corners are collapsed
+        (:func:`components.extract.collapse_short_edges`) and its edge lengths evened out on the surface
+        (:func:`components.extract.relax_edge_lengths`).
     constraint_faces : (c,) int, optional
         Faces of the (triangulated) input whose field direction is prescribed.
     constraint_directions : (c, 3) float, optional
@@ -167,7 +178,8 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     timings["field"] = time.perf_counter() - t
     t = time.perf_counter()
     if boundary == "auto":
-        tried = [_extract(V, T, U, W, target, mode, d, merge) for mode in ("snap", "mixed") for d in _DENSITIES]
+        index = TriangleIndex(V, T)
+        tried = [_extract(V, T, U, W, target, mode, d, merge, index) for mode in ("snap", "mixed") for d in _DENSITIES]
         ex, par = max(tried, key=lambda r: _score(r[0], target))
         timings["parametrize"] = sum(p.timings["total"] for _, p in tried)
     else:
@@ -267,12 +279,12 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     field : str
         ``"conjugate"`` (default), ``"smooth"`` (not conjugate, for comparison) or ``"principal"``.
     boundary : str
-        ``"auto"`` (default: the best of ``"snap"`` and ``"mixed"`` at three grid densities, by quad share and
-        the share of edges within ±30% of the target), ``"snap"`` (panel lines follow the field, grid vertices
-        near the boundary are moved onto it so the boundary row is whole panels), ``"mixed"`` (boundary stretches
-        along a panel direction follow a panel line, the rest snapped), ``"aligned"`` (every boundary stretch
-        follows a panel line; distorts panels where the boundary is oblique to the field) or ``"free"`` (panel
-        lines end on the boundary: clipped cells).
+        ``"auto"`` (default: the best of ``"snap"`` and ``"mixed"`` at three grid densities, by quad share, the
+        share of edges within ±30% of the target, then the mean edge nearest the target), ``"snap"`` (panel lines
+        follow the field, grid vertices near the boundary are moved onto it so the boundary row is whole panels),
+        ``"mixed"`` (boundary stretches along a panel direction follow a panel line, the rest snapped),
+        ``"aligned"`` (every boundary stretch follows a panel line; distorts panels where the boundary is oblique
+        to the field) or ``"free"`` (panel lines end on the boundary: clipped cells).
     constraint_faces : Integers | None
         Optional faces (of the triangulated input) whose field direction is prescribed.
     constraint_directions : Vectors | None

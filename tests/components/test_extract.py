@@ -238,3 +238,58 @@ def test_collapse_short_edges_boundary_corner_of_a_face():
     F = np.array([[0, 1, 4, 3], [1, 2, 5, 4]])
     V2, F2, *_ = _collapse(V, F)
     assert len(V2) == 6 and np.array_equal(F2, F)
+
+
+def test_relax_edge_lengths_evens_a_compressed_column_on_the_surface():
+    from components.extract import relax_edge_lengths
+    from components.mesh import boundary_loops
+
+    V, T = plane(24, 4.0)  # the input surface: a triangulated square [0, 4]², z = 0
+    Vc, Fc = _grid_quads(4)
+    Vc[:, 0] = np.array([0.0, 0.45, 2.0, 3.0, 4.0])[np.round(Vc[:, 0]).astype(int)]  # columns 0.45 and 1.55 wide
+    from components.proximity import TriangleIndex
+
+    cp = TriangleIndex(V, T).query(Vc)
+    tri, bary = cp.faces, cp.barycentric
+    X, tri2, bary2 = relax_edge_lengths(V, T, Vc, Fc, tri, bary, 1.0)
+    E = edge_topology(Fc).E
+    L = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
+    L0 = np.linalg.norm(Vc[E[:, 1]] - Vc[E[:, 0]], axis=1)
+    assert np.mean(np.abs(L0 - 1) <= 0.3) < 0.8 and np.all(np.abs(L - 1) <= 0.3)
+    assert np.allclose(X[:, 2], 0.0)  # on the surface
+    # boundary vertices stay on the square's outline, its corners do not move
+    lp = boundary_loops(Fc)[0]
+    on_edge = np.isclose(X[lp, 0], 0) | np.isclose(X[lp, 0], 4) | np.isclose(X[lp, 1], 0) | np.isclose(X[lp, 1], 4)
+    assert on_edge.all()
+    for c in ([0, 0], [4, 0], [0, 4], [4, 4]):
+        assert np.any(np.all(np.isclose(X[:, :2], c), axis=1))
+    assert np.all(face_normals(X, Fc)[:, 2] > 0)
+    # the reported surface locations reproduce the points
+    np.testing.assert_allclose(np.einsum("pk,pkd->pd", bary2, V[T[tri2]]), X, atol=1e-9)
+    # already even: unchanged
+    Xe, *_ = relax_edge_lengths(V, T, *_grid_quads(4), tri, bary, 1.0)
+    np.testing.assert_array_equal(Xe, _grid_quads(4)[0])
+
+
+def test_collapse_short_edges_degenerate_corners():
+    from components.mesh import pad_faces
+
+    # a straight corner (180°) of valence 2 on the boundary: a T-vertex in a pentagon; its shorter edge (0.3,
+    # above the short-edge ratio) goes and the pentagon becomes a quad
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [0.7, 1, 0], [1, 1, 0], [2, 1, 0]], dtype=float)
+    F = pad_faces([[0, 1, 5, 4, 3], [1, 2, 6, 5]])
+    V2, F2, *_ = _collapse(V, F)
+    validate_mesh(V2, F2)
+    assert len(V2) == 6 and sorted(face_sizes(F2).tolist()) == [4, 4]
+    # a sliver with every corner on the boundary (a 2.3° corner) disappears, the quad beside it stays
+    V = np.array([[0, 0, 0], [1, 0, 0], [1.02, 0.5, 0], [0, 1, 0], [1, 1, 0]], dtype=float)
+    F = pad_faces([[0, 1, 4, 3], [1, 2, 4]])
+    V2, F2, *_ = _collapse(V, F)
+    validate_mesh(V2, F2)
+    assert face_sizes(F2).tolist() == [4] and np.allclose(np.sort(V2[:, 0]), [0, 0, 1, 1])
+    # the same sliver removed directly (where no collapse applies, e.g. all its corners are outline corners)
+    from components.extract import _drop_boundary_slivers
+
+    n = len(V)
+    _, F3, *_ = _drop_boundary_slivers(V, F, np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))
+    assert face_sizes(F3).tolist() == [4]
