@@ -32,7 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from components.mesh import edge_topology, face_corners, face_normals, face_sizes, pad_faces
-from components.planarize_geometry import corner_angles
+from components.planarize_geometry import corner_angles, nonconvex_faces
 from components.types import Mesh
 
 log = logging.getLogger(__name__)
@@ -954,8 +954,8 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
     inside, or common neighbours other than the apexes of triangles on the edge) or merge two outline corners (a
     face corner of valence 2 joined to a boundary vertex of higher valence by a short boundary edge is not a
     second corner: it goes). Quads on the edge become triangles. Faces with a degenerate corner whose corners
-    all lie on the boundary are then removed where the mesh stays manifold (slivers spanning a turn of the outline,
-    e.g. around a small hole).
+    all lie on the boundary, and non-convex faces with a boundary edge, are then removed where the mesh stays
+    manifold (slivers and folds where the outline turns tightly, e.g. around a small hole).
 
     Parameters
     ----------
@@ -1037,7 +1037,12 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
         if not done:
             break
         Vc, Fc, tri, bary, grid = _relabel(Vn, Fc, tri, bary, grid, lab)
-    return _drop_boundary_slivers(Vc, Fc, tri, bary, grid)
+    for _ in range(3):  # a dropped sliver can leave its neighbour on the boundary
+        nf = len(Fc)
+        Vc, Fc, tri, bary, grid = _drop_boundary_slivers(Vc, Fc, tri, bary, grid)
+        if len(Fc) == nf:
+            break
+    return Vc, Fc, tri, bary, grid
 
 
 def _degenerate_corners(X: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -1048,8 +1053,9 @@ def _degenerate_corners(X: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 def _drop_boundary_slivers(Vc, Fc, tri, bary, grid):
     """Remove the faces with a degenerate corner whose corners all lie on the boundary (slivers spanning a turn of
-    the outline, e.g. around a small hole: they cover next to no surface and no collapse can fix them), when the
-    mesh stays manifold without them."""
+    the outline, e.g. around a small hole: they cover next to no surface and no collapse can fix them) and the
+    non-convex faces with a boundary edge (folded by the snapping where the outline turns tightly), when the mesh
+    stays manifold without them."""
     if len(Fc) < 2:
         return Vc, Fc, tri, bary, grid
     topo = edge_topology(Fc)
@@ -1060,7 +1066,10 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid):
     bad[C.face[_degenerate_corners(Vc, Fc)]] = True
     allb = np.ones(len(Fc), dtype=bool)
     np.logical_and.at(allb, C.face, onb[C.v])
-    drop = np.nonzero(bad & allb)[0]
+    # faces folded by the snapping (a reflex corner or a bow-tie) on the boundary go too
+    bedge = np.zeros(len(Fc), dtype=bool)
+    bedge[topo.EF[topo.count == 1, 0]] = True
+    drop = np.nonzero((bad & allb) | (nonconvex_faces(Vc, Fc) & bedge))[0]
     if not len(drop):
         return Vc, Fc, tri, bary, grid
     keep = np.ones(len(Fc), dtype=bool)

@@ -293,3 +293,9 @@ def test_collapse_short_edges_degenerate_corners():
     n = len(V)
     _, F3, *_ = _drop_boundary_slivers(V, F, np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))
     assert face_sizes(F3).tolist() == [4]
+    # a bow-tie folded by the snapping on the boundary goes as well
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 1, 0], [0, 1, 0], [1, 1, 0], [2, 0, 0]], dtype=float)
+    F = np.array([[0, 1, 4, 3], [1, 2, 5, 4]])
+    n = len(V)
+    _, F4, *_ = _drop_boundary_slivers(V, F, np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))
+    assert face_sizes(F4).tolist() == [4]
