@@ -1039,7 +1039,7 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
         Vc, Fc, tri, bary, grid = _relabel(Vn, Fc, tri, bary, grid, lab)
     for _ in range(3):  # a dropped sliver can leave its neighbour on the boundary
         nf = len(Fc)
-        Vc, Fc, tri, bary, grid = _drop_boundary_slivers(Vc, Fc, tri, bary, grid)
+        Vc, Fc, tri, bary, grid = _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h)
         if len(Fc) == nf:
             break
     return Vc, Fc, tri, bary, grid
@@ -1051,11 +1051,12 @@ def _degenerate_corners(X: np.ndarray, F: np.ndarray) -> np.ndarray:
     return (ang < _DEGENERATE) | (ang > np.pi - _DEGENERATE)
 
 
-def _drop_boundary_slivers(Vc, Fc, tri, bary, grid):
-    """Remove the faces with a degenerate corner whose corners all lie on the boundary (slivers spanning a turn of
-    the outline, e.g. around a small hole: they cover next to no surface and no collapse can fix them) and the
-    non-convex faces with a boundary edge (folded by the snapping where the outline turns tightly), when the mesh
-    stays manifold without them."""
+def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float = 0.3):
+    """Remove the faces whose corners all lie on the boundary and that have a degenerate corner or an area below
+    ``small · h²`` (slivers spanning a turn of the outline, e.g. along a jagged hole: they cover next to no
+    surface, no sliding on the boundary can make them planar and no collapse can fix them) and the non-convex
+    faces with a boundary edge (folded by the snapping where the outline turns tightly), when the mesh stays
+    manifold without them."""
     if len(Fc) < 2:
         return Vc, Fc, tri, bary, grid
     topo = edge_topology(Fc)
@@ -1069,6 +1070,7 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid):
     # faces folded by the snapping (a reflex corner or a bow-tie) on the boundary go too
     bedge = np.zeros(len(Fc), dtype=bool)
     bedge[topo.EF[topo.count == 1, 0]] = True
+    bad |= np.linalg.norm(face_normals(Vc, Fc, unit=False), axis=1) < small * h * h
     drop = np.nonzero((bad & allb) | (nonconvex_faces(Vc, Fc) & bedge))[0]
     if not len(drop):
         return Vc, Fc, tri, bary, grid

@@ -299,3 +299,10 @@ def test_collapse_short_edges_degenerate_corners():
     n = len(V)
     _, F4, *_ = _drop_boundary_slivers(V, F, np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))
     assert face_sizes(F4).tolist() == [4]
+    # a small face wholly on the boundary (area below 0.3 h², no degenerate corner) is a sliver too
+    V = np.array([[0, 0, 0], [1, 0, 0], [1.2, 0.5, 0], [0, 1, 0], [1, 1, 0]], dtype=float)
+    F = pad_faces([[0, 1, 4, 3], [1, 2, 4]])  # the triangle: area 0.1
+    n = len(V)
+    args = (np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))
+    assert face_sizes(_drop_boundary_slivers(V, F, *args)[1]).tolist() == [4, 3]  # no h: only degenerate ones
+    assert face_sizes(_drop_boundary_slivers(V, F, *args, h=1.0)[1]).tolist() == [4]
