@@ -12,11 +12,12 @@ back as a dict ``{path tuple: value}``. Errors raise :class:`ClientError` with t
 from __future__ import annotations
 
 import json
+import urllib.error
+import urllib.request
 from collections import namedtuple
 from typing import Any
 
 import numpy as np
-import requests
 
 from components.types import NurbsSurface, Plane
 from ghserver import convert
@@ -112,29 +113,35 @@ class Client:
     def __init__(self, url: str = "http://127.0.0.1:5000", timeout: float = 100.0, api_key: str | None = None):
         self.url = url.rstrip("/")
         self.timeout = timeout
-        self.session = requests.Session()
-        if api_key:
-            self.session.headers["RhinoComputeKey"] = api_key
+        self.headers = {"RhinoComputeKey": api_key} if api_key else {}
         self._meta: dict[str, dict] = {}
 
-    def _get(self, path: str):
+    def _request(self, url: str, data: bytes | None = None, headers: dict | None = None) -> tuple[int, bytes]:
+        """One HTTP exchange (standard library only): ``(status, body)``; unreachable servers raise ClientError."""
+        req = urllib.request.Request(url, data=data, headers={**self.headers, **(headers or {})},
+                                     method="POST" if data is not None else "GET")
         try:
-            r = self.session.get(f"{self.url}/{path.lstrip('/')}", timeout=self.timeout,
-                                 headers={"Accept": "application/json"})
-        except requests.RequestException as exc:
-            raise ClientError(f"cannot reach {self.url}: {exc}") from None
-        body = self._json(r)
-        if r.status_code != 200:
-            errors = body.get("Errors") or body.get("errors") or [f"HTTP {r.status_code}"]
-            raise ClientError("; ".join(errors), r.status_code, errors)
+            with urllib.request.urlopen(req, timeout=self.timeout) as r:
+                return r.status, r.read()
+        except urllib.error.HTTPError as exc:  # an answer with an error status: its body holds the message
+            return exc.code, exc.read()
+        except (urllib.error.URLError, OSError) as exc:
+            raise ClientError(f"cannot reach {self.url}: {getattr(exc, 'reason', exc)}") from None
+
+    def _get(self, path: str):
+        status, raw = self._request(f"{self.url}/{path.lstrip('/')}", headers={"Accept": "application/json"})
+        body = self._json(status, raw)
+        if status != 200:
+            errors = body.get("Errors") or body.get("errors") or [f"HTTP {status}"]
+            raise ClientError("; ".join(errors), status, errors)
         return body
 
     @staticmethod
-    def _json(r):
+    def _json(status: int, raw: bytes):
         try:
-            return r.json()
-        except ValueError:
-            raise ClientError(f"server answered HTTP {r.status_code} without JSON", r.status_code) from None
+            return json.loads(raw.decode("utf-8"))
+        except (ValueError, UnicodeDecodeError):
+            raise ClientError(f"server answered HTTP {status} without JSON", status) from None
 
     def components(self) -> list[dict]:
         """The catalogue: metadata of every component."""
@@ -190,15 +197,12 @@ class Client:
         opts = {k[1:]: inputs.pop(k) for k in list(inputs) if k.startswith("_")}
         uri = uri.strip("/")
         body = self.request_body(uri, inputs, **opts)
-        try:
-            r = self.session.post(f"{self.url}/{uri}", data=json.dumps(body, ensure_ascii=False).encode("utf-8"),
-                                  headers={"Content-Type": "application/json; charset=utf-8"}, timeout=self.timeout)
-        except requests.RequestException as exc:
-            raise ClientError(f"cannot reach {self.url}: {exc}") from None
-        resp = self._json(r)
+        status, raw = self._request(f"{self.url}/{uri}", data=json.dumps(body, ensure_ascii=False).encode("utf-8"),
+                                    headers={"Content-Type": "application/json; charset=utf-8"})
+        resp = self._json(status, raw)
         errors = resp.get("errors") or []
-        if r.status_code != 200 or errors:
-            raise ClientError(f"{uri}: " + "; ".join(errors or [f"HTTP {r.status_code}"]), r.status_code, errors)
+        if status != 200 or errors:
+            raise ClientError(f"{uri}: " + "; ".join(errors or [f"HTTP {status}"]), status, errors)
         meta = self.metadata(uri)
         outs = meta["Outputs"]
         by_name = {t.get("ParamName"): t.get("InnerTree", {}) for t in resp.get("values", [])}

@@ -123,6 +123,21 @@ def test_python_client_with_numpy_trimesh_and_rhino3dm(live_server):
         c.call("nope/nothing", x=1)
 
 
+def test_python_client_needs_no_extra_package_and_reports_an_unreachable_server():
+    # the client runs on the standard library (a plain `pip install .` has it working)
+    import socket
+    import subprocess
+    import sys
+
+    code = "import sys; sys.modules['requests'] = None; import ghserver.client"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
+    with socket.socket() as sk:  # a port nobody listens on
+        sk.bind(("127.0.0.1", 0))
+        port = sk.getsockname()[1]
+    with pytest.raises(ClientError, match="cannot reach"):
+        Client(f"http://127.0.0.1:{port}", timeout=5).components()
+
+
 def test_published_planarity_component_end_to_end(live_server):
     c = Client(live_server.url)
     V, Q = quad_grid(3, 3)
