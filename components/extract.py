@@ -953,9 +953,9 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
     vertex); an edge is skipped where collapsing it would pinch the mesh (both ends on the boundary across the
     inside, or common neighbours other than the apexes of triangles on the edge) or merge two outline corners (a
     face corner of valence 2 joined to a boundary vertex of higher valence by a short boundary edge is not a
-    second corner: it goes). Quads on the edge become triangles. Faces with a degenerate corner whose corners
-    all lie on the boundary, and non-convex faces with a boundary edge, are then removed where the mesh stays
-    manifold (slivers and folds where the outline turns tightly, e.g. around a small hole).
+    second corner: it goes). Quads on the edge become triangles. Faces whose corners all lie on the boundary and
+    that are degenerate, non-convex or small are then removed where the mesh stays manifold (slivers and folds
+    where the outline turns tightly, e.g. around a small hole).
 
     Parameters
     ----------
@@ -1052,11 +1052,11 @@ def _degenerate_corners(X: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 
 def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float = 0.3):
-    """Remove the faces whose corners all lie on the boundary and that have a degenerate corner or an area below
-    ``small · h²`` (slivers spanning a turn of the outline, e.g. along a jagged hole: they cover next to no
-    surface, no sliding on the boundary can make them planar and no collapse can fix them) and the non-convex
-    faces with a boundary edge (folded by the snapping where the outline turns tightly), when the mesh stays
-    manifold without them."""
+    """Remove the faces whose corners all lie on the boundary and that have a degenerate corner, are non-convex
+    (folded by the snapping where the outline turns tightly) or have an area below ``small · h²`` (slivers spanning
+    a turn of the outline, e.g. along a jagged hole: they cover next to no surface, no sliding on the boundary can
+    make them planar and no collapse can fix them), when the mesh stays manifold without them. Only faces wholly on
+    the boundary go, so the candidate's boundary stays on the input boundary."""
     if len(Fc) < 2:
         return Vc, Fc, tri, bary, grid
     topo = edge_topology(Fc)
@@ -1067,11 +1067,8 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
     bad[C.face[_degenerate_corners(Vc, Fc)]] = True
     allb = np.ones(len(Fc), dtype=bool)
     np.logical_and.at(allb, C.face, onb[C.v])
-    # faces folded by the snapping (a reflex corner or a bow-tie) on the boundary go too
-    bedge = np.zeros(len(Fc), dtype=bool)
-    bedge[topo.EF[topo.count == 1, 0]] = True
     bad |= np.linalg.norm(face_normals(Vc, Fc, unit=False), axis=1) < small * h * h
-    drop = np.nonzero((bad & allb) | (nonconvex_faces(Vc, Fc) & bedge))[0]
+    drop = np.nonzero((bad | nonconvex_faces(Vc, Fc)) & allb)[0]
     if not len(drop):
         return Vc, Fc, tri, bary, grid
     keep = np.ones(len(Fc), dtype=bool)

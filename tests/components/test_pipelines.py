@@ -39,6 +39,14 @@ def check_candidate(V, F, cand, h, quads=True):
     # every vertex within 1% of the target length of the input surface
     d = closest_points(Vc, V, T).distances
     assert d.max() <= 0.01 * h
+    # the candidate's boundary lies on the input boundary (no interior vertex exposed by the cleanup)
+    from components.extract import _boundary_curve, _closest_on_boundary
+    from components.mesh import edge_topology
+
+    topo = edge_topology(Fc)
+    onb = np.unique(topo.E[topo.count == 1].ravel())
+    X = _closest_on_boundary(Vc[onb], _boundary_curve(V, T))[0]
+    assert np.linalg.norm(X - Vc[onb], axis=1).max() <= 1e-6 * h
     q = candidate_quality(Vc, Fc, h)
     return q
 
