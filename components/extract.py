@@ -606,7 +606,7 @@ def _closest_on_boundary(P: np.ndarray, bc: _BoundaryCurve, chunk: int = 2048):
 
 def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: np.ndarray,
                   grid: np.ndarray, target_length: float, snap: float = 0.6, relax: int = 8,
-                  merge_triangles: bool = True):
+                  merge_triangles: bool = True, index=None):
     """Turn the clipped cells along a free boundary into whole quads: snap grid vertices onto the boundary.
 
     A grid vertex joined to boundary hits by short edges (shorter than ``snap · target_length``) absorbs them and
@@ -643,6 +643,8 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
         vertex become two quads; a triangle with one boundary edge loses that edge (its two
         boundary vertices merge, the quads on either side stay quads) unless that stretches the cells around it
         past ``2 · target_length``.
+    index : TriangleIndex, optional
+        Closest-point index of ``(V, T)`` for the relaxation (built when omitted).
 
     Returns
     -------
@@ -709,7 +711,7 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
     if merge_triangles and len(Fc):
         Vc, Fc, tri, bary, grid = _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h)
     if relax > 0 and len(Fc):
-        Vc, tri, bary = _relax_band(Vc, Fc, tri, bary, bc, relax, TriangleIndex(V, T))
+        Vc, tri, bary = _relax_band(Vc, Fc, tri, bary, bc, relax, TriangleIndex(V, T) if index is None else index)
     return Vc, Fc, tri, bary, grid
 
 
@@ -842,14 +844,18 @@ def _relax_band(Vc, Fc, tri, bary, bc, sweeps, index):
     ir = np.nonzero(ring)[0]
     for _ in range(sweeps):
         avg = (A @ Vc) / deg[:, None]
-        Y = Vc + 0.5 * (avg - Vc)
-        if len(ib):
-            X, t_, b_ = _closest_on_boundary(Y[ib], bc)
-            Vc[ib], tri[ib], bary[ib] = X, t_, b_
-        if len(ir):
-            cp = index.query(Y[ir])
-            Vc[ir], tri[ir], bary[ir] = cp.points, cp.faces, cp.barycentric
+        _put_back(Vc + 0.5 * (avg - Vc), ib, ir, bc, index, Vc, tri, bary)
     return Vc, tri, bary
+
+
+def _put_back(Y, ib, ii, bc, index, X, tri, bary):
+    """Write the moved points ``Y`` back onto the surface into ``X, tri, bary`` (in place): boundary vertices
+    ``ib`` at their closest boundary points, interior vertices ``ii`` at their closest surface points."""
+    if len(ib):
+        X[ib], tri[ib], bary[ib] = _closest_on_boundary(Y[ib], bc)
+    if len(ii):
+        cp = index.query(Y[ii])
+        X[ii], tri[ii], bary[ii] = cp.points, cp.faces, cp.barycentric
 
 
 def _boundary_turns(Vc: np.ndarray, Fc: np.ndarray):
@@ -983,14 +989,13 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
         # degenerate corners (spikes and straight corners): the shorter of their two edges goes too
         C = face_corners(Fc)
         ang = corner_angles(Vc, Fc)
-        deg = np.nonzero(_degenerate_corners(Vc, Fc))[0]
+        deg = np.nonzero(_degenerate(ang))[0]
         if len(deg):
-            key = np.minimum(E[:, 0], E[:, 1]) * nv + np.maximum(E[:, 0], E[:, 1])
-            order = np.argsort(key)
-            ends = np.stack([C.prev[deg], C.next[deg]], axis=1)
-            k = np.minimum(ends, C.v[deg][:, None]) * nv + np.maximum(ends, C.v[deg][:, None])
-            eid = order[np.searchsorted(key[order], k)]
-            short = np.union1d(short, eid.ravel())  # both edges: the shorter goes first, if it may
+            # corners and half-edges share their order: corner i starts half-edge i, its face's previous corner
+            # starts the half-edge that ends at it
+            k = face_sizes(Fc)[C.face[deg]]
+            prev = np.where(C.slot[deg] > 0, deg - 1, deg + k - 1)
+            short = np.union1d(short, topo.HE[np.concatenate([deg, prev])])  # the shorter goes first, if it may
             # a face corner (valence 2) standing straight on the boundary is no corner of the outline
             straight = np.zeros(nv, dtype=bool)
             straight[C.v[deg][ang[deg] > np.pi - _DEGENERATE]] = True
@@ -1045,9 +1050,8 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
     return Vc, Fc, tri, bary, grid
 
 
-def _degenerate_corners(X: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """``(c,) bool`` per corner (``face_corners`` order): sharper than 5° or straighter than 175°."""
-    ang = corner_angles(X, F)
+def _degenerate(ang: np.ndarray) -> np.ndarray:
+    """Which corner angles (radians, :func:`corner_angles`) are sharper than 5° or straighter than 175°."""
     return (ang < _DEGENERATE) | (ang > np.pi - _DEGENERATE)
 
 
@@ -1064,7 +1068,7 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
     onb[topo.E[topo.count == 1].ravel()] = True
     C = face_corners(Fc)
     bad = np.zeros(len(Fc), dtype=bool)
-    bad[C.face[_degenerate_corners(Vc, Fc)]] = True
+    bad[C.face[_degenerate(corner_angles(Vc, Fc))]] = True
     allb = np.ones(len(Fc), dtype=bool)
     np.logical_and.at(allb, C.face, onb[C.v])
     bad |= np.linalg.norm(face_normals(Vc, Fc, unit=False), axis=1) < small * h * h
@@ -1131,7 +1135,6 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
     """
     from scipy.sparse.linalg import factorized
 
-    from components.planarize_geometry import nonconvex_faces
     from components.proximity import TriangleIndex
 
     h = float(target_length)
@@ -1154,7 +1157,7 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
         """Faces turned against the surface, non-convex or with a degenerate corner."""
         bad = np.einsum("ij,ij->i", face_normals(X, Fc), FN[tri_[first]]) <= 0
         bad |= nonconvex_faces(X, Fc)
-        bad[C.face[_degenerate_corners(X, Fc)]] = True
+        bad[C.face[_degenerate(corner_angles(X, Fc))]] = True
         return bad
 
     ib = np.nonzero(onb & ~fixed)[0]
@@ -1171,11 +1174,7 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
         rhs = D.T @ goal + w[:, None] * X
         Y = np.column_stack([solve(rhs[:, k]) for k in range(3)])
         tri2, bary2 = tri.copy(), bary.copy()
-        if len(ib):
-            Y[ib], tri2[ib], bary2[ib] = _closest_on_boundary(Y[ib], bc)
-        if len(ii):
-            cp = index.query(Y[ii])
-            Y[ii], tri2[ii], bary2[ii] = cp.points, cp.faces, cp.barycentric
+        _put_back(Y, ib, ii, bc, index, Y, tri2, bary2)
         for _ in range(3):
             stay = fixed | held
             Y[stay], tri2[stay], bary2[stay] = X[stay], tri[stay], bary[stay]

@@ -580,11 +580,14 @@ def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, 
     return pu, pv, np.mod(best, np.pi)
 
 
+def _line_angle(a, b) -> np.ndarray:
+    """Angle (radians, in ``[0, π/2]``) between the lines of unit complex directions ``a`` and ``b``."""
+    return np.abs(np.angle((a * np.conj(b)) ** 2)) / 2.0
+
+
 def _pair_deviation(pu, pv, u, v) -> np.ndarray:
     """Largest angle (radians) between the lines of a pair ``(pu, pv)`` and the nearer lines of ``(u, v)``."""
-    def line(a, b):
-        return np.abs(np.angle((a * np.conj(b)) ** 2)) / 2.0
-
+    line = _line_angle
     return np.maximum(np.minimum(line(pu, u), line(pu, v)), np.minimum(line(pv, v), line(pv, u)))
 
 
@@ -749,7 +752,7 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     def far(pu, pv, u, v, active):
         """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle or narrower than
         the release separation."""
-        narrow = np.abs(np.angle((pu * np.conj(pv)) ** 2)) / 2.0 < release_separation
+        narrow = _line_angle(pu, pv) < release_separation
         out = active & ((_pair_deviation(pu, pv, u, v) > release_angle) | narrow)
         if fixed is not None:
             out[fixed[0]] = False

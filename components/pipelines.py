@@ -31,7 +31,6 @@ from components.extract import (
     split_large_faces,
 )
 from components.mesh import InputError, check_number, edge_topology, face_sizes
-from components.proximity import TriangleIndex
 from components.parametrize import (
     FIELDS,
     Parametrization,
@@ -43,6 +42,7 @@ from components.parametrize import (
     direction_field,
     seamless_parametrization,
 )
+from components.proximity import TriangleIndex
 from components.types import Integers, Mesh, Vectors
 
 log = logging.getLogger(__name__)
@@ -89,14 +89,14 @@ _FREE_ANGLE = np.radians(10.0)  # "mixed": boundary stretches within this angle 
 CANDIDATE_BOUNDARY_MODES = ("auto", "snap", "mixed", "aligned", "free")
 
 
-def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float, index=None):
+def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float, index: TriangleIndex):
     """One parametrization + extraction with a boundary treatment (see :func:`candidate_mesh`)."""
     pmode = {"snap": "free", "mixed": "aligned"}.get(mode, mode)
     par = seamless_parametrization(V, T, U, W, target, boundary=pmode, density=density,
                                    free_angle=_FREE_ANGLE if mode == "mixed" else None)
     ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
     if mode in ("snap", "mixed"):
-        Vx, Fx, trx, bax, grx = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target)
+        Vx, Fx, trx, bax, grx = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
         ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx)
     Vx, Fx, trx, bax, grx = collapse_short_edges(ex.V, split_large_faces(ex.V, ex.F), ex.tri, ex.bary, ex.grid,
                                                  target)
@@ -177,13 +177,13 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
                            release_separation=release_separation)
     timings["field"] = time.perf_counter() - t
     t = time.perf_counter()
+    index = TriangleIndex(V, T)  # one closest-point index for every extraction's relaxations
     if boundary == "auto":
-        index = TriangleIndex(V, T)
         tried = [_extract(V, T, U, W, target, mode, d, merge, index) for mode in ("snap", "mixed") for d in _DENSITIES]
         ex, par = max(tried, key=lambda r: _score(r[0], target))
         timings["parametrize"] = sum(p.timings["total"] for _, p in tried)
     else:
-        ex, par = _extract(V, T, U, W, target, boundary, 1.0, merge)
+        ex, par = _extract(V, T, U, W, target, boundary, 1.0, merge, index)
         timings["parametrize"] = par.timings["total"]
     timings["extract"] = time.perf_counter() - t - timings["parametrize"]
     warnings = list(par.warnings)
