@@ -30,9 +30,9 @@ import scipy.sparse.linalg as spla
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from components.conical import conical_check, face_offset  # noqa: E402
-from components.mesh import boundary_loops, quad_grid, read_mesh, triangulate  # noqa: E402
-from components.parametrize_conformal import (  # noqa: E402
+from components.conical.cones import conical_check, face_offset  # noqa: E402
+from components.core.mesh import boundary_loops, quad_grid, read_mesh, triangulate  # noqa: E402
+from components.core.conformal import (  # noqa: E402
     _farthest_pair,
     _lscm_matrix,
     conformal_distortion,
@@ -180,17 +180,17 @@ def table_offsets(quick):
 
 def table_curvature_pipeline(quick):
     """pq_from_curvature_network step timings on ~5k and ~20k triangles (the network traced by
-    components.streamlines when present, else by the private test tracer of tests/components)."""
-    from components.curvature_pipeline import curvature_pipeline
-    from components.samples import sample_mesh
+    components.fields.streamlines when present, else by the private test tracer of tests/components)."""
+    from components.network.pipeline import curvature_pipeline
+    from components.surfaces.samples import sample_mesh
 
     tracer = None
     try:
-        import components.streamlines  # noqa: F401
+        import components.fields.streamlines  # noqa: F401
     except ImportError:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
         from tests.components.test_curvature_network import trace_evenly as tracer
-    print("\n### pq_from_curvature_network (tracer: " + ("components.streamlines" if tracer is None else
+    print("\n### pq_from_curvature_network (tracer: " + ("components.fields.streamlines" if tracer is None else
                                                          "private test tracer") + ")\n")
     print("| surface | triangles | panel | quads % | angle err ° | network s | rebuild s | optimize s | total s "
           "| max planarity | max criterion | closeness / edge | offset err / d |")

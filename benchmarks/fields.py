@@ -27,9 +27,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from components.curvature import gaussian_curvature, vertex_principal_curvature  # noqa: E402
-from components.mesh import edge_topology, read_mesh, remove_unreferenced  # noqa: E402
-from components.remesh import isotropic_remesh  # noqa: E402
+from components.core.curvature import gaussian_curvature, vertex_principal_curvature  # noqa: E402
+from components.core.mesh import edge_topology, read_mesh, remove_unreferenced  # noqa: E402
+from components.fields.remesh import isotropic_remesh  # noqa: E402
 
 
 class Step(NamedTuple):
@@ -102,26 +102,26 @@ STEPS: list[Step] = [
 
 
 def _field(V, T):
-    from components.parametrize import direction_field
+    from components.fields.parametrize import direction_field
 
     return direction_field(V, T, field="conjugate", alignment=0.1)
 
 
 def parametrize_ours(V, T):
-    from components.parametrize import seamless_parametrization
+    from components.fields.parametrize import seamless_parametrization
 
     U, W = _field(V, T)
     return seamless_parametrization(V, T, U, W, 2.5 * _mean_edge(V, T))
 
 
 def candidate_ours(V, T):
-    from components.pipelines import candidate_mesh
+    from components.fields.pipeline import candidate_mesh
 
     return candidate_mesh((V, T), 2.5 * _mean_edge(V, T))
 
 
 def pq_end_to_end_ours(V, T):
-    from components.pipelines import pq_from_conjugate_field
+    from components.fields.pipeline import pq_from_conjugate_field
 
     return pq_from_conjugate_field((V, T), 2.5 * _mean_edge(V, T), time_budget=30.0)
 
@@ -138,19 +138,19 @@ STEPS += [
 
 
 def _curv(V, T):
-    from components.fields import field_curvature
+    from components.fields.field import field_curvature
 
     return field_curvature(V, T)
 
 
 def smooth_field_ours(V, T):
-    from components.fields import smooth_field
+    from components.fields.field import smooth_field
 
     return smooth_field(V, T, alignment=0.1)
 
 
 def _smooth(V, T):
-    from components.fields import smooth_field
+    from components.fields.field import smooth_field
 
     cv = _curv(V, T)
     return cv, smooth_field(V, T, alignment=0.1, curvature=cv)
@@ -158,7 +158,7 @@ def _smooth(V, T):
 
 def conjugate_field_ours(V, T):
     """Curvature + smooth field + conjugate field (the pipeline's field stage)."""
-    from components.fields import conjugate_field
+    from components.fields.field import conjugate_field
 
     cv, s = _smooth(V, T)
     return conjugate_field(V, T, s.U, s.W, curvature=cv)
@@ -170,7 +170,7 @@ def _principal(V, T):
 
 
 def singularities_ours(V, T):
-    from components.fields import field_singularities
+    from components.fields.field import field_singularities
 
     return field_singularities(V, T, *_principal(V, T))
 
@@ -182,7 +182,7 @@ def singularities_igl(V, T):
 
 
 def comb_ours(V, T):
-    from components.fields import comb_field
+    from components.fields.field import comb_field
 
     return comb_field(V, T, *_principal(V, T))
 
@@ -195,9 +195,9 @@ def comb_igl(V, T):
 
 def streamlines_ours(V, T):
     """Conjugate field, then an evenly spaced net of both families at 2.5 mean edges."""
-    from components.streamlines import evenly_spaced_streamlines
+    from components.fields.streamlines import evenly_spaced_streamlines
 
-    from components.fields import conjugate_field
+    from components.fields.field import conjugate_field
 
     cv, s = _smooth(V, T)
     c = conjugate_field(V, T, s.U, s.W, curvature=cv)
@@ -207,8 +207,8 @@ def streamlines_ours(V, T):
 def _polyvector_system(V, T):
     import scipy.sparse as sp
 
-    from components.fields import _alignment_weights, _anisotropy, _connection_laplacian
-    from components.fields_mesh import dual_graph, face_frames
+    from components.fields.field import _alignment_weights, _anisotropy, _connection_laplacian
+    from components.fields.frames import dual_graph, face_frames
 
     fr = face_frames(V, T)
     dg = dual_graph(V, T, fr)
@@ -217,8 +217,8 @@ def _polyvector_system(V, T):
 
 
 def factor_symmetric_ours(V, T):
-    """The smooth-field system factored as components.fields does (MMD on AᵀA pattern, no pivoting)."""
-    from components.fields import _factor
+    """The smooth-field system factored as components.fields.field does (MMD on AᵀA pattern, no pivoting)."""
+    from components.fields.field import _factor
 
     return _factor(_polyvector_system(V, T))
 

@@ -26,7 +26,7 @@ import requests
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from components.mesh import quad_grid  # noqa: E402
+from components.core.mesh import quad_grid  # noqa: E402
 from ghserver import convert  # noqa: E402
 
 

@@ -22,9 +22,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from components import metrics  # noqa: E402
-from components.mesh import quad_grid, triangulate  # noqa: E402
-from components.proximity import TriangleIndex  # noqa: E402
+from components.metrics import quality as metrics  # noqa: E402
+from components.core.mesh import quad_grid, triangulate  # noqa: E402
+from components.core.proximity import TriangleIndex  # noqa: E402
 
 
 def timed(fn, repeat):

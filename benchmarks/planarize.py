@@ -30,8 +30,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from components.mesh import edge_lengths, edge_topology, quad_grid, read_mesh  # noqa: E402
-from components.planarize import (  # noqa: E402
+from components.core.mesh import edge_lengths, edge_topology, quad_grid, read_mesh  # noqa: E402
+from components.planarize.planarizer import (  # noqa: E402
     corner_angles,
     face_planarity,
     nonconvex_faces,

@@ -13,7 +13,7 @@ Tables printed:
    use the same rules: largest vertex difference and time. Skipped if COMPAS is not importable; it can be put
    outside the project's environment with ``pip install --target /tmp/compas_ref compas --no-deps`` and
    ``COMPAS_PATH=/tmp/compas_ref``.
-3. ``pulled_vertices`` (exact closest points via ``components.proximity``) of subdivided candidates onto
+3. ``pulled_vertices`` (exact closest points via ``components.core.proximity``) of subdivided candidates onto
    ``meshes/libigl/inspired_mesh.obj``, beside ``igl.point_mesh_squared_distance`` (AABB tree) on the same query
    points: time and the largest difference between the two distances.
 4. The whole strategy (``subdivision_pq``, 36 coarse faces, 2 levels) on the four sample surfaces and
@@ -34,9 +34,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from components.mesh import pad_faces, quad_grid, read_mesh, triangulate  # noqa: E402
-from components.pull import pulled_vertices  # noqa: E402
-from components.subdivide import catmull_clark  # noqa: E402
+from components.core.mesh import pad_faces, quad_grid, read_mesh, triangulate  # noqa: E402
+from components.subdivision.pull import pulled_vertices  # noqa: E402
+from components.subdivision.subdivide import catmull_clark  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data" / "meshes"
 
@@ -155,11 +155,11 @@ def table_pull(quick: bool):
 def table_strategy(quick: bool):
     import igl
 
-    from components.mesh import bounding_box_diagonal
-    from components.planarize import face_planarity
-    from components.proximity import TriangleIndex
-    from components.samples import sample_mesh
-    from components.subdivision_pipeline import subdivision_pq
+    from components.core.mesh import bounding_box_diagonal
+    from components.planarize.planarizer import face_planarity
+    from components.core.proximity import TriangleIndex
+    from components.surfaces.samples import sample_mesh
+    from components.subdivision.pipeline import subdivision_pq
 
     print("\n4. subdivision strategy (36 coarse faces, 2 levels), issue 8 targets: dist ≤ 1e-9·diag, "
           "planarity ≤ 1e-4, closeness ≤ 2% edge")

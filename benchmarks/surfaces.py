@@ -15,14 +15,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from components.curves import curve_points, equal_chord_points, sample_curve  # noqa: E402
-from components.samples import sample_mesh  # noqa: E402
-from components.surfaces import (  # noqa: E402
+from components.surfaces.curves import curve_points, equal_chord_points, sample_curve  # noqa: E402
+from components.surfaces.samples import sample_mesh  # noqa: E402
+from components.surfaces.generators import (  # noqa: E402
     scale_translation_surface,
     surface_mesh,
     translation_surface,
 )
-from components.types import NurbsCurve, NurbsSurface  # noqa: E402
+from components.core.types import NurbsCurve, NurbsSurface  # noqa: E402
 
 try:
     import rhino3dm

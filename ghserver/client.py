@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from components.types import NurbsSurface, Plane
+from components.core.types import NurbsSurface, Plane
 from ghserver import convert
 from ghserver import params as P
 from ghserver.protocol import format_path, parse_path
@@ -54,7 +54,7 @@ def _encode_input(kind: str, value) -> dict:
         value = convert.to_value(value)
     if kind == "Surface":
         if not isinstance(value, NurbsSurface):
-            raise TypeError("a Surface input needs a components.types.NurbsSurface or a rhino3dm surface")
+            raise TypeError("a Surface input needs a components.core.types.NurbsSurface or a rhino3dm surface")
         return {"type": "Rhino.Geometry.NurbsSurface", "data": convert.encode_surface(value)}
     if kind == "Plane" and not isinstance(value, Plane):
         value = Plane(*value)

@@ -5,8 +5,8 @@
   triangles and quads). Meshes are read and written through the openNURBS archive directly
   (:mod:`ghserver._onmesh`) when its layout is recognised, through rhino3dm objects otherwise.
 * Curve ⇄ polyline ``(n, 3)`` array (PolylineCurve, LineCurve, polyline-shaped NURBS of degree 1) or
-  :class:`components.types.NurbsCurve` (everything else, through ``ToNurbsCurve``).
-* Surface → :class:`components.types.NurbsSurface` (a NurbsSurface, any Surface, or a one-face Brep).
+  :class:`components.core.types.NurbsCurve` (everything else, through ``ToNurbsCurve``).
+* Surface → :class:`components.core.types.NurbsSurface` (a NurbsSurface, any Surface, or a one-face Brep).
 
 Errors are :class:`DecodeError` with a message that says what was wrong; the protocol layer prefixes the input's
 name.
@@ -19,8 +19,8 @@ import logging
 import numpy as np
 import rhino3dm
 
-from components.mesh import face_sizes, triangulate
-from components.types import NurbsCurve, NurbsSurface
+from components.core.mesh import face_sizes, triangulate
+from components.core.types import NurbsCurve, NurbsSurface
 
 log = logging.getLogger(__name__)
 

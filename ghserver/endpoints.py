@@ -6,9 +6,15 @@ Building the list checks every function, so a mismatch fails at import.
 """
 from __future__ import annotations
 
-from components import (coarse, conical, conical_opt, curvature, curvature_network, curvature_pipeline, extract,
-                        fields, metrics, parametrize, parametrize_conformal, pipelines, planarize, pull, quad_rebuild,
-                        remesh, samples, singularities, streamlines, subdivide, subdivision_pipeline, surfaces)
+from components.conical import cones as conical, optimize as conical_opt
+from components.core import conformal as parametrize_conformal, curvature
+from components.fields import extract, field as fields, parametrize, pipeline as pipelines, remesh, streamlines
+from components.metrics import quality as metrics
+from components.network import pipeline as curvature_pipeline, rebuild as quad_rebuild, tracing as curvature_network
+from components.planarize import planarizer as planarize
+from components.subdivision import (coarse, pipeline as subdivision_pipeline, pull, singularities,
+                                    subdivide)
+from components.surfaces import generators as surfaces, samples
 from ghserver.registry import Registry, declare
 
 M = {"mesh": "M"}

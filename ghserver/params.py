@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from components.types import NurbsCurve, NurbsSurface, Plane
+from components.core.types import NurbsCurve, NurbsSurface, Plane
 from ghserver import convert
 
 

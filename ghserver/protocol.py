@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from components.mesh import InputError
+from components.core.errors import InputError
 from ghserver import params as P
 from ghserver.registry import Component, Registry
 

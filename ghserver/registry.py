@@ -4,7 +4,7 @@ Everything Hops needs to know about a component is derived from the function its
 
 * the **name** is the function's name, the **description** the first line of its docstring;
 * the **inputs** are its parameters in signature order, their kinds from the annotations (see
-  :mod:`components.types`), their defaults from the signature (falsy ones included), their descriptions from the
+  :mod:`components.core.types`), their defaults from the signature (falsy ones included), their descriptions from the
   docstring's Parameters section; ``X | None = None`` is an optional input;
 * the **outputs** are the fields of the returned ``NamedTuple``, described in the docstring's Returns section.
 
@@ -22,7 +22,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from components import types as ct
+from components.core import types as ct
 
 # Grasshopper TypeName of every kind we support (hops-protocol.md §1.3)
 KINDS = ("Number", "Integer", "Boolean", "Text", "Point", "Vector", "Plane", "Line", "Curve", "Surface", "Mesh")
@@ -217,7 +217,7 @@ def declare(
     Parameters
     ----------
     function : callable
-        A published component function (see :mod:`components.types` for the annotation rules).
+        A published component function (see :mod:`components.core.types` for the annotation rules).
     uri : str
         Path the component is served at, without the leading slash (e.g. ``"metrics/planarity"``).
     nicknames : dict, optional

@@ -130,8 +130,8 @@ class Surface(NamedTuple):
 
 
 def _builtin_surfaces(names, settings: Settings) -> list[Surface]:
-    from components.samples import sample_mesh, sample_surface_function
-    from components.strategies import default_panel_size
+    from components.surfaces.samples import sample_mesh, sample_surface_function
+    from components.harness import default_panel_size
 
     out = []
     for name in names:
@@ -143,8 +143,9 @@ def _builtin_surfaces(names, settings: Settings) -> list[Surface]:
 
 
 def _file_surface(path, settings: Settings, taken: set) -> Surface:
-    from components.mesh import read_mesh, remove_unreferenced, triangulate, validate_mesh
-    from components.strategies import default_panel_size
+    from components.core.checks import validate_mesh
+    from components.core.mesh import read_mesh, remove_unreferenced, triangulate
+    from components.harness import default_panel_size
 
     path = Path(path)
     V, F = read_mesh(path)
@@ -167,12 +168,12 @@ def _file_surface(path, settings: Settings, taken: set) -> Surface:
 def face_values(V, F, measure: str, reference) -> np.ndarray:
     """Per-face values of a colouring measure.
 
-    ``"planarity"`` (:func:`components.metrics.quad_planarity`), ``"area"``
-    (:func:`components.metrics.polygon_areas`) or ``"closeness"``: the largest distance of the face's corners to the
+    ``"planarity"`` (:func:`components.metrics.quality.quad_planarity`), ``"area"``
+    (:func:`components.metrics.quality.polygon_areas`) or ``"closeness"``: the largest distance of the face's corners to the
     reference surface ``(V, T)``, so that the largest face value is the mesh's ``closeness_max`` metric.
     """
-    from components.mesh import face_sizes
-    from components.metrics import polygon_areas, quad_planarity, vertex_distances
+    from components.core.mesh import face_sizes
+    from components.metrics.quality import polygon_areas, quad_planarity, vertex_distances
 
     if measure == "planarity":
         return quad_planarity(V, F)
@@ -202,7 +203,7 @@ def _pyplot():
 
 
 def _polygons(V, F):
-    from components.mesh import face_sizes
+    from components.core.mesh import face_sizes
 
     sizes = face_sizes(F)
     if np.all(sizes == F.shape[1]):
@@ -643,7 +644,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     out_dir : path-like
         Output folder (created; previous ``img/*.png`` and ``meshes/*.obj`` in it are removed).
     surfaces : iterable of str, optional
-        Built-in surfaces to use (default: all of :data:`components.samples.SAMPLE_NAMES`); ``()`` for none.
+        Built-in surfaces to use (default: all of :data:`components.surfaces.samples.SAMPLE_NAMES`); ``()`` for none.
     mesh_files : iterable of path-like
         Extra design surfaces read from OBJ / OFF / PLY files (triangulated).
     progress : bool
@@ -651,7 +652,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     quick : bool
         Small meshes and few panels (a test-sized run); ignored when ``settings`` is given.
     strategies : iterable of str, optional
-        Strategy keys (default: all of :func:`components.strategies.strategy_names`).
+        Strategy keys (default: all of :func:`components.harness.strategy_names`).
     settings : Settings, optional
         Explicit sizes (resolution, divisions, time budget).
 
@@ -660,9 +661,10 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     ReportSummary
         Paths written, number of rows and images, elapsed seconds.
     """
-    from components.mesh import InputError, write_obj
-    from components.samples import SAMPLE_NAMES
-    from components.strategies import get_strategy, run_strategy, strategy_names
+    from components.core.errors import InputError
+    from components.core.mesh import write_obj
+    from components.surfaces.samples import SAMPLE_NAMES
+    from components.harness import get_strategy, run_strategy, strategy_names
 
     t0 = time.perf_counter()
     settings = settings or (QUICK if quick else DEMO)
@@ -721,7 +723,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                     mesh_file = f"meshes/{_slug(surf.name, sname, stage)}.obj"
                     write_obj(out / mesh_file, Vm, Fm)
                     row["meshes"][stage] = mesh_file
-                    from components.metrics import warping_height
+                    from components.metrics.quality import warping_height
 
                     per_stage[stage] = {"warping": warping_height(Vm, Fm)}
                     for measure, (mtitle, unit) in MEASURES.items():
@@ -793,8 +795,8 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
 
 
 def _areas_of(path: Path) -> np.ndarray:
-    from components.mesh import read_mesh
-    from components.metrics import polygon_areas
+    from components.core.mesh import read_mesh
+    from components.metrics.quality import polygon_areas
 
     V, F = read_mesh(path)
     return polygon_areas(V, F)

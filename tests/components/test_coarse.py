@@ -4,13 +4,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.coarse import coarse_quad_mesh, ogrid_layout, patch_layout
-from components.mesh import InputError, MeshError, boundary_loops, face_normals, read_mesh, validate_mesh
-from components.proximity import PolylineIndex, TriangleIndex
-from components.pull import pulled_vertices
-from components.samples import sample_mesh
-from components.singularities import singularity_analysis
-from components.subdivide import catmull_clark, coarse_mesh
+from components.subdivision.coarse import coarse_quad_mesh, ogrid_layout, patch_layout
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, face_normals, read_mesh
+from components.core.proximity import PolylineIndex, TriangleIndex
+from components.subdivision.pull import pulled_vertices
+from components.surfaces.samples import sample_mesh
+from components.subdivision.singularities import singularity_analysis
+from components.subdivision.subdivide import catmull_clark, coarse_mesh
 from tests.conftest import shared_file
 
 
@@ -85,7 +87,7 @@ def test_aligned_net_is_valid_and_more_conjugate(name):
 
 
 def test_auto_falls_back_to_the_ogrid_with_a_warning(monkeypatch):
-    import components.coarse as coarse_mod
+    import components.subdivision.coarse as coarse_mod
 
     def fails(*a, **k):
         raise InputError("surface", "no field")

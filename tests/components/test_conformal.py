@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import InputError, MeshError, boundary_loops, quad_grid, read_mesh, triangulate
-from components.parametrize_conformal import (
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, quad_grid, read_mesh, triangulate
+from components.core.conformal import (
     conformal_distortion,
     conformal_map,
     cotan_laplacian,

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.conical import (
+from components.conical.cones import (
     conical_analysis,
     conical_check,
     conical_criterion,
@@ -15,7 +15,9 @@ from components.conical import (
     offset_mesh,
     vertex_offset,
 )
-from components.mesh import InputError, MeshError, boundary_vertex_mask, quad_grid, read_mesh, validate_mesh
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_vertex_mask, quad_grid, read_mesh
 from tests.conftest import shared_file
 
 

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.conical import conical_check, face_offset
-from components.conical_opt import conical_optimize, optimize_conical
-from components.mesh import InputError, MeshError, quad_grid, read_mesh
-from components.planarize import face_planarity, planarize_mesh
+from components.conical.cones import conical_check, face_offset
+from components.conical.optimize import conical_optimize, optimize_conical
+from components.core.errors import InputError, MeshError
+from components.core.mesh import quad_grid, read_mesh
+from components.planarize.planarizer import face_planarity, planarize_mesh
 from tests.components.test_conical import revolution_net, translation_net
 from tests.conftest import shared_file
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.curvature import (
+from components.core.curvature import (
     face_principal_curvature,
     gaussian_curvature,
     mean_curvature,
@@ -12,7 +12,8 @@ from components.curvature import (
     vertex_normals,
     vertex_principal_curvature,
 )
-from components.mesh import InputError, MeshError, boundary_vertex_mask, read_mesh, triangulate
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_vertex_mask, read_mesh, triangulate
 from tests.conftest import shared_file
 
 

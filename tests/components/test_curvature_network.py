@@ -1,25 +1,26 @@
 """Curvature network: principal field, umbilic handling, network tracing (with a private test tracer until
-components.streamlines lands), principal angle error, the published component and its typed errors."""
+components.fields.streamlines lands), principal angle error, the published component and its typed errors."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from components.curvature_network import (
+from components.network.tracing import (
     _cut_umbilic,
     curvature_network,
     principal_angle_error,
     principal_field,
     principal_network,
 )
-from components.mesh import InputError, MeshError, quad_grid, triangulate
-from components.quad_rebuild import _Locator, plane_map, uv_to_surface
-from components.samples import sample_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import quad_grid, triangulate
+from components.network.rebuild import _Locator, plane_map, uv_to_surface
+from components.surfaces.samples import sample_mesh
 
 
 # ----------------------------------------------------------------------------------------------
-# a minimal evenly spaced RK4 tracer, for the tests only (the project's tracer is components.streamlines)
+# a minimal evenly spaced RK4 tracer, for the tests only (the project's tracer is components.fields.streamlines)
 
 
 def _uv_dirs(V, T, UV, D):
@@ -140,15 +141,15 @@ def test_principal_field_dome_has_umbilic_spots():
 def test_network_on_saddle(saddle, tracer):
     V, T = saddle
     if tracer == "project":
-        pytest.importorskip("components.streamlines")
+        pytest.importorskip("components.fields.streamlines")
     net = principal_network(V, T, 2.5, tracer=trace_evenly if tracer == "test" else None)
     assert len(net.lines_1) >= 5 and len(net.lines_2) >= 5
-    from components.proximity import closest_points
+    from components.core.proximity import closest_points
 
     P = np.concatenate(net.lines_1 + net.lines_2)
     assert closest_points(P, V, T).distances.max() < 1e-9  # the lines lie on the surface
     # line segments follow their principal direction
-    from components.proximity import TriangleIndex
+    from components.core.proximity import TriangleIndex
 
     idx = TriangleIndex(V, T)
     for lines, D in ((net.lines_1, net.field.PD1), (net.lines_2, net.field.PD2)):
@@ -211,18 +212,18 @@ def test_bad_inputs(saddle):
 
 
 def test_dome_umbilics_are_skipped_with_a_warning():
-    pytest.importorskip("components.streamlines")
+    pytest.importorskip("components.fields.streamlines")
     V, T, _ = sample_mesh("dome", 40)
     net = principal_network(V, T, 2.0)
     assert net.umbilic_fraction > 0 and any("umbilic regions" in w for w in net.warnings)
-    from components.proximity import TriangleIndex
+    from components.core.proximity import TriangleIndex
 
     P = np.concatenate(net.lines_1 + net.lines_2)
     assert not net.field.umbilic[TriangleIndex(V, T).query(P).faces].any()  # no line runs through an umbilic region
 
 
 def test_missing_tracer_is_a_clear_error(saddle, monkeypatch):
-    import components.curvature_network as cn
+    import components.network.tracing as cn
 
     monkeypatch.setattr(cn, "_default_tracer", lambda: None)
     V, T = saddle

@@ -1,23 +1,25 @@
 """End-to-end curvature-network strategy on the built-in samples and libigl's inspired_mesh (the network traced by
-components.streamlines; the private test tracer of test_curvature_network stands in when it is absent)."""
+components.fields.streamlines; the private test tracer of test_curvature_network stands in when it is absent)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from components.conical import face_offset
-from components.curvature_pipeline import curvature_pipeline, pq_from_curvature_network
-from components.mesh import InputError, MeshError, boundary_vertex_mask, read_mesh, validate_mesh
-from components.samples import sample_mesh
+from components.conical.cones import face_offset
+from components.network.pipeline import curvature_pipeline, pq_from_curvature_network
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_vertex_mask, read_mesh
+from components.surfaces.samples import sample_mesh
 from tests.components.test_curvature_network import trace_evenly
 from tests.conftest import shared_file
 
 
 try:
-    import components.streamlines  # noqa: F401
+    import components.fields.streamlines  # noqa: F401
 
     TRACER = None  # the project's tracer
-except ImportError:  # pragma: no cover - until components.streamlines lands
+except ImportError:  # pragma: no cover - until components.fields.streamlines lands
     TRACER = trace_evenly
 
 

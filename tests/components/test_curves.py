@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from components import curves
-from components.curves import (
+from components.surfaces import curves
+from components.surfaces.curves import (
     as_curve,
     curve_derivatives,
     curve_length,
@@ -16,8 +16,8 @@ from components.curves import (
     equal_chord_points,
     sample_curve,
 )
-from components.mesh import InputError
-from components.types import NurbsCurve
+from components.core.errors import InputError
+from components.core.types import NurbsCurve
 
 rhino3dm = pytest.importorskip("rhino3dm")
 

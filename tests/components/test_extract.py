@@ -4,10 +4,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.extract import extract_quads, iso_segments, quad_mesh_from_parametrization, snap_boundary
-from components.mesh import InputError, MeshError, edge_topology, face_normals, face_sizes, validate_mesh
-from components.parametrize import direction_field, seamless_parametrization
-from components.samples import sample_mesh
+from components.fields.extract import extract_quads, iso_segments, quad_mesh_from_parametrization, snap_boundary
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import edge_topology, face_normals, face_sizes
+from components.fields.parametrize import direction_field, seamless_parametrization
+from components.surfaces.samples import sample_mesh
 from tests.components.test_parametrize import annulus, constant_field, plane
 
 
@@ -171,8 +173,8 @@ def test_snap_merges_boundary_triangles(angle):
 
 
 def test_split_large_faces_cuts_quads_and_keeps_orientation():
-    from components.extract import split_large_faces
-    from components.mesh import pad_faces
+    from components.fields.extract import split_large_faces
+    from components.core.mesh import pad_faces
 
     t = np.linspace(0, 2 * np.pi, 8, endpoint=False)
     oct_ = np.stack([np.cos(t), np.sin(t), np.zeros(8)], axis=1)
@@ -201,7 +203,7 @@ def _grid_quads(k):
 
 
 def _collapse(V, F, h=1.0):
-    from components.extract import collapse_short_edges
+    from components.fields.extract import collapse_short_edges
 
     n = len(V)
     return collapse_short_edges(V, F, np.arange(n), np.zeros((n, 3)), np.ones(n, dtype=bool), h)
@@ -226,7 +228,7 @@ def test_collapse_short_edges_interior_edge():
 def test_collapse_short_edges_boundary_corner_of_a_face():
     # a pentagon whose extra corner sits 0.05 beside a boundary vertex on the straight top boundary (the
     # inspired_mesh case that blocked the planarization): the corner goes, the pentagon becomes a quad
-    from components.mesh import pad_faces
+    from components.core.mesh import pad_faces
 
     V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [1.05, 1, 0], [2, 1, 0]], dtype=float)
     F = pad_faces([[0, 1, 4, 3], [1, 2, 6, 5, 4]])
@@ -241,13 +243,13 @@ def test_collapse_short_edges_boundary_corner_of_a_face():
 
 
 def test_relax_edge_lengths_evens_a_compressed_column_on_the_surface():
-    from components.extract import relax_edge_lengths
-    from components.mesh import boundary_loops
+    from components.fields.extract import relax_edge_lengths
+    from components.core.mesh import boundary_loops
 
     V, T = plane(24, 4.0)  # the input surface: a triangulated square [0, 4]², z = 0
     Vc, Fc = _grid_quads(4)
     Vc[:, 0] = np.array([0.0, 0.45, 2.0, 3.0, 4.0])[np.round(Vc[:, 0]).astype(int)]  # columns 0.45 and 1.55 wide
-    from components.proximity import TriangleIndex
+    from components.core.proximity import TriangleIndex
 
     cp = TriangleIndex(V, T).query(Vc)
     tri, bary = cp.faces, cp.barycentric
@@ -272,7 +274,7 @@ def test_relax_edge_lengths_evens_a_compressed_column_on_the_surface():
 
 
 def test_collapse_short_edges_degenerate_corners():
-    from components.mesh import pad_faces
+    from components.core.mesh import pad_faces
 
     # a straight corner (180°) of valence 2 on the boundary: a T-vertex in a pentagon; its shorter edge (0.3,
     # above the short-edge ratio) goes and the pentagon becomes a quad
@@ -288,7 +290,7 @@ def test_collapse_short_edges_degenerate_corners():
     validate_mesh(V2, F2)
     assert face_sizes(F2).tolist() == [4] and np.allclose(np.sort(V2[:, 0]), [0, 0, 1, 1])
     # the same sliver removed directly (where no collapse applies, e.g. all its corners are outline corners)
-    from components.extract import _drop_boundary_slivers
+    from components.fields.extract import _drop_boundary_slivers
 
     n = len(V)
     _, F3, *_ = _drop_boundary_slivers(V, F, np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.fields import (
+from components.fields.field import (
     comb_field,
     conjugacy_error,
     conjugate_direction_field,
@@ -15,8 +15,9 @@ from components.fields import (
     smooth_direction_field,
     smooth_field,
 )
-from components.mesh import InputError, MeshError, read_mesh, triangulate
-from components.samples import sample_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import read_mesh, triangulate
+from components.surfaces.samples import sample_mesh
 from tests.conftest import shared_file
 
 
@@ -150,7 +151,7 @@ def test_singularities_agree_with_libigl():
     ours = set(fld.singularities.tolist())
     theirs = set(np.nonzero(is_sing)[0].tolist())
     # libigl also flags boundary vertices (partial rings); compare at interior vertices
-    from components.mesh import boundary_vertex_mask
+    from components.core.mesh import boundary_vertex_mask
 
     bnd = boundary_vertex_mask(T, len(V))
     theirs = {v for v in theirs if not bnd[v]}
@@ -234,7 +235,7 @@ def test_field_with_hole():
     V, T = _annulus()
     fld = smooth_field(V, T)
     assert len(fld.singularities) <= 8
-    from components.mesh import boundary_vertex_mask
+    from components.core.mesh import boundary_vertex_mask
 
     assert not boundary_vertex_mask(T, len(V))[fld.singularities].any()
 

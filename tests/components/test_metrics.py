@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components import metrics as M
-from components.mesh import InputError, MeshError, face_sizes, pad_faces, quad_grid, read_mesh, triangulate
+from components.metrics import quality as M
+from components.core.errors import InputError, MeshError
+from components.core.mesh import face_sizes, pad_faces, quad_grid, read_mesh, triangulate
 from tests.conftest import SHARED, shared_file
 
 # ----------------------------------------------------------------------------------------------

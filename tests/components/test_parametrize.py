@@ -4,15 +4,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import InputError, MeshError, quad_grid, triangulate
-from components.parametrize import (
+from components.core.errors import InputError, MeshError
+from components.core.mesh import quad_grid, triangulate
+from components.fields.parametrize import (
     _A,
     direction_field,
     field_angle_error,
     parametrize,
     seamless_parametrization,
 )
-from components.samples import sample_mesh
+from components.surfaces.samples import sample_mesh
 
 
 def plane(n=12, size=6.0, jitter=0.0, seed=0):
@@ -276,7 +277,7 @@ def test_centering_is_the_identity_when_the_field_is_followed_exactly():
 
 
 def test_centering_scale_brings_two_spacings_within_the_band():
-    from components.parametrize import _centering_scale
+    from components.fields.parametrize import _centering_scale
 
     # half the triangles with iso-line spacing h, half with 1.5 h: only a scale in [1.2, 1.25] puts both within ±25%
     V, T = plane(n=10, size=5.0)

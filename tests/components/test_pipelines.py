@@ -4,18 +4,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import (
-    InputError,
-    MeshError,
-    face_normals,
-    face_sizes,
-    read_mesh,
-    triangulate,
-    validate_mesh,
-)
-from components.pipelines import candidate_mesh, candidate_quality, pq_from_conjugate_field
-from components.proximity import closest_points
-from components.samples import sample_mesh
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import face_normals, face_sizes, read_mesh, triangulate
+from components.fields.pipeline import candidate_mesh, candidate_quality, pq_from_conjugate_field
+from components.core.proximity import closest_points
+from components.surfaces.samples import sample_mesh
 from tests.conftest import shared_file
 
 def target_for(V, F, quads):
@@ -40,8 +34,8 @@ def check_candidate(V, F, cand, h, quads=True):
     d = closest_points(Vc, V, T).distances
     assert d.max() <= 0.01 * h
     # the candidate's boundary lies on the input boundary (no interior vertex exposed by the cleanup)
-    from components.extract import _boundary_curve, _closest_on_boundary
-    from components.mesh import edge_topology
+    from components.fields.extract import _boundary_curve, _closest_on_boundary
+    from components.core.mesh import edge_topology
 
     topo = edge_topology(Fc)
     onb = np.unique(topo.E[topo.count == 1].ravel())

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import InputError, MeshError, edge_lengths, edge_topology, quad_grid, read_mesh
-from components.planarize import (
+from components.core.errors import InputError, MeshError
+from components.core.mesh import edge_lengths, edge_topology, quad_grid, read_mesh
+from components.planarize.planarizer import (
     corner_angles,
     face_planarity,
     nonconvex_faces,
@@ -14,10 +15,10 @@ from components.planarize import (
     planarize_on_surface,
     warping_height,
 )
-from components.planarize_geometry import LoopIndex, vertex_stars
-from components.planarize_goals import conical_residual
-from components.planarize_geometry import face_corners
-from components.mesh import boundary_loops
+from components.planarize.geometry import LoopIndex, vertex_stars
+from components.planarize.goals import conical_residual
+from components.planarize.geometry import face_corners
+from components.core.mesh import boundary_loops
 from tests.conftest import shared_file
 
 
@@ -266,7 +267,7 @@ def test_edge_length_equalization_evens_the_edges():
 
 
 def test_area_equalization_evens_the_panels():
-    from components.metrics import polygon_areas
+    from components.metrics.quality import polygon_areas
 
     V, F = _uneven_hypar()
     plain = planarize((V, F))

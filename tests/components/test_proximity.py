@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import InputError, MeshError, quad_grid, triangulate
-from components.proximity import (
+from components.core.errors import InputError, MeshError
+from components.core.mesh import quad_grid, triangulate
+from components.core.proximity import (
     PolylineIndex,
     TriangleIndex,
     closest_points,

@@ -5,17 +5,10 @@ import igl
 import numpy as np
 import pytest
 
-from components.mesh import (
-    InputError,
-    MeshError,
-    boundary_loops,
-    bounding_box_diagonal,
-    quad_grid,
-    read_mesh,
-    triangulate,
-)
-from components.pull import pull_to_surface, pulled_vertices, reference_boundary
-from components.subdivide import catmull_clark
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, bounding_box_diagonal, quad_grid, read_mesh, triangulate
+from components.subdivision.pull import pull_to_surface, pulled_vertices, reference_boundary
+from components.subdivision.subdivide import catmull_clark
 from tests.conftest import shared_file
 
 
@@ -37,7 +30,7 @@ def _coarse_over_hypar(levels=2):
 
 
 def _distance_to_segments(P, A, B):
-    """Brute-force distance of every point to a set of segments (independent of components.proximity)."""
+    """Brute-force distance of every point to a set of segments (independent of components.core.proximity)."""
     AB = B - A
     t = np.einsum("pij,ij->pi", P[:, None, :] - A[None], AB) / np.einsum("ij,ij->i", AB, AB)
     t = np.clip(t, 0, 1)
@@ -147,7 +140,7 @@ def _coarse_layout(surface, n=6):
 
 @pytest.mark.parametrize("name", ["dome", "saddle", "wave", "canopy"])
 def test_subdivided_net_pulled_onto_sample_surfaces(name):
-    samples = pytest.importorskip("components.samples")
+    samples = pytest.importorskip("components.surfaces.samples")
     s = samples.sample_surface_function(name)
     Vr, Tr, _ = samples.sample_mesh(name, 24)
     V, Q, _ = catmull_clark(*_coarse_layout(s), levels=2)
@@ -209,11 +202,11 @@ def test_bad_inputs(nonmanifold_fan):
 def test_pulled_subdivision_spreads_the_boundary_and_keeps_panels_open():
     # lobed canopy boundary: closest points collapse the boundary panels (0.8° corner measured), the arc-length
     # spread with the harmonic interior follow-up keeps them open
-    from components.coarse import coarse_net
-    from components.planarize_geometry import corner_angles
-    from components.proximity import PolylineIndex, TriangleIndex
-    from components.pull import pulled_subdivision
-    from components.samples import sample_mesh
+    from components.subdivision.coarse import coarse_net
+    from components.planarize.geometry import corner_angles
+    from components.core.proximity import PolylineIndex, TriangleIndex
+    from components.subdivision.pull import pulled_subdivision
+    from components.surfaces.samples import sample_mesh
 
     V, T, _ = sample_mesh("canopy", 20)
     net = coarse_net(V, T, faces=36, layout="ogrid")
@@ -238,7 +231,7 @@ def test_pulled_subdivision_falls_back_without_a_boundary_order():
     Vq, Q = quad_grid(2, 2, 2.0, 2.0)
     Vq[:, :2] -= 1.0
     Vs, Qs, _ = catmull_clark(Vq, Q, levels=1)
-    from components.pull import pulled_subdivision
+    from components.subdivision.pull import pulled_subdivision
 
     # coarse vertices given in an unrelated place: no ordered anchors -> plain closest points
     res = pulled_subdivision(Vs, Qs, Vq[::-1] * 0.0, V, T)

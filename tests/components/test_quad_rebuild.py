@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
-from components.mesh import InputError, MeshError, boundary_loops, edge_topology, face_sizes, quad_grid, \
-    triangulate, validate_mesh
-from components.quad_rebuild import (
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, edge_topology, face_sizes, quad_grid, triangulate
+from components.network.rebuild import (
     _Locator,
     network_crossings,
     plane_map,
@@ -121,7 +122,7 @@ def test_rebuild_exact_revolution_network(patch):
     validate_mesh(rb.V, rb.F)  # manifold, consistently oriented, no degenerate face
     assert rb.quad_fraction >= 0.9
     assert len(boundary_loops(rb.F)) == 1
-    from components.proximity import closest_points
+    from components.core.proximity import closest_points
 
     assert closest_points(rb.V, V, T).distances.max() < 1e-9  # on the surface
     # interior edges run along meridians (constant angle) or parallels (constant z)
@@ -134,7 +135,7 @@ def test_rebuild_exact_revolution_network(patch):
     inner = (rb.kind[E] == 0).all(axis=1)
     assert np.median(ratio[inner]) < 1e-3 and ratio[inner].max() < 0.05
     # the faces are nearly planar and conical: the network is principal
-    from components.conical import conical_criterion
+    from components.conical.cones import conical_criterion
 
     _, crit = conical_criterion(rb.V, rb.F)
     assert np.abs(crit).max() < 0.02
@@ -214,7 +215,7 @@ def test_bad_inputs(patch):
 
 
 def test_published_quad_rebuild_bad_inputs():
-    from components.samples import sample_mesh
+    from components.surfaces.samples import sample_mesh
 
     V, T, _ = sample_mesh("saddle", 16)
     with pytest.raises(InputError, match="panel_size"):

@@ -4,17 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import (
-    InputError,
-    MeshError,
-    boundary_loops,
-    edge_topology,
-    read_mesh,
-    triangulate,
-    validate_mesh,
-)
-from components.proximity import TriangleIndex, closest_points_on_polyline
-from components.remesh import feature_edges, isotropic_remesh, remesh
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, edge_topology, read_mesh, triangulate
+from components.core.proximity import TriangleIndex, closest_points_on_polyline
+from components.fields.remesh import feature_edges, isotropic_remesh, remesh
 from tests.conftest import shared_file
 
 

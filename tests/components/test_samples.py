@@ -6,9 +6,11 @@ import doctest
 import numpy as np
 import pytest
 
-from components import samples
-from components.mesh import InputError, boundary_loops, edge_lengths, edge_topology, face_normals, validate_mesh
-from components.samples import SAMPLE_NAMES, sample_mesh, sample_surface, sample_surface_function
+from components.surfaces import samples
+from components.core.checks import validate_mesh
+from components.core.errors import InputError
+from components.core.mesh import boundary_loops, edge_lengths, edge_topology, face_normals
+from components.surfaces.samples import SAMPLE_NAMES, sample_mesh, sample_surface, sample_surface_function
 
 STATED = {"dome": "positive", "saddle": "negative", "wave": "mixed", "canopy": "mixed"}
 

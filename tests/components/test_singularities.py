@@ -4,9 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import InputError, MeshError, read_mesh, triangulate
-from components.samples import sample_mesh, sample_surface_function
-from components.singularities import integrated_gaussian_curvature, singularity_analysis
+from components.core.errors import InputError, MeshError
+from components.core.mesh import read_mesh, triangulate
+from components.surfaces.samples import sample_mesh, sample_surface_function
+from components.subdivision.singularities import integrated_gaussian_curvature, singularity_analysis
 from tests.conftest import shared_file
 
 

@@ -4,11 +4,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.fields import conjugate_field, field_curvature, smooth_field
-from components.mesh import InputError, MeshError, read_mesh, triangulate
-from components.proximity import closest_points
-from components.samples import sample_mesh
-from components.streamlines import evenly_spaced_streamlines, streamlines, trace_streamlines
+from components.fields.field import conjugate_field, field_curvature, smooth_field
+from components.core.errors import InputError, MeshError
+from components.core.mesh import read_mesh, triangulate
+from components.core.proximity import closest_points
+from components.surfaces.samples import sample_mesh
+from components.fields.streamlines import evenly_spaced_streamlines, streamlines, trace_streamlines
 from tests.components.test_fields import _annulus, _grid_triangles, _torus
 from tests.conftest import shared_file
 
@@ -90,7 +91,7 @@ def test_streamlines_stop_at_the_boundary():
     V, T, B = sample_mesh("dome", 32)
     fld = smooth_field(V, T)
     lines = trace_streamlines(V, T, fld.U, fld.W, V[~np.isin(np.arange(len(V)), B)][::40], family=0)
-    from components.proximity import closest_points_on_polyline
+    from components.core.proximity import closest_points_on_polyline
 
     loop = np.vstack([V[B], V[B[:1]]])
     ends_on_boundary = 0
@@ -189,7 +190,7 @@ def test_bad_input(nonmanifold_fan):
 
 
 def _wave_principal():
-    from components.curvature_network import principal_field
+    from components.network.tracing import principal_field
 
     V, T, _ = sample_mesh("wave", 40)
     fld = principal_field(V, T)
@@ -197,7 +198,7 @@ def _wave_principal():
 
 
 def _same_family_crossings(lines):
-    from components.quad_rebuild import network_crossings
+    from components.network.rebuild import network_crossings
 
     L2 = [L[:, :2] for L in lines]  # a height field: the plan view keeps crossings
     ia, _, ib, _, _ = network_crossings(L2, L2)

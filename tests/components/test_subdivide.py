@@ -5,19 +5,10 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-import components.subdivide as subdiv
-from components.mesh import (
-    InputError,
-    MeshError,
-    boundary_loops,
-    edge_topology,
-    face_normals,
-    face_sizes,
-    pad_faces,
-    quad_grid,
-    read_mesh,
-)
-from components.subdivide import (
+import components.subdivision.subdivide as subdiv
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, edge_topology, face_normals, face_sizes, pad_faces, quad_grid, read_mesh
+from components.subdivision.subdivide import (
     catmull_clark,
     coarse_mesh,
     face_count_after,

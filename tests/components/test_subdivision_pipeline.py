@@ -3,12 +3,13 @@ from __future__ import annotations
 
 import pytest
 
-import components.coarse as coarse_mod
-import components.subdivide as subdivide_mod
-from components.mesh import InputError, MeshError, bounding_box_diagonal, quad_grid, read_mesh
-from components.proximity import TriangleIndex
-from components.samples import sample_mesh
-from components.subdivision_pipeline import pq_from_subdivision
+import components.subdivision.coarse as coarse_mod
+import components.subdivision.subdivide as subdivide_mod
+from components.core.errors import InputError, MeshError
+from components.core.mesh import bounding_box_diagonal, quad_grid, read_mesh
+from components.core.proximity import TriangleIndex
+from components.surfaces.samples import sample_mesh
+from components.subdivision.pipeline import pq_from_subdivision
 from tests.conftest import shared_file
 
 
@@ -45,8 +46,8 @@ def test_reaches_planarity_and_closeness(name):
 def test_boundary_slides_on_the_surface_boundary():
     V, T = _surface("canopy")
     res = pq_from_subdivision((V, T), levels=2)
-    from components.mesh import boundary_loops
-    from components.proximity import PolylineIndex
+    from components.core.mesh import boundary_loops
+    from components.core.proximity import PolylineIndex
 
     X, Q = res.planarized
     bv = boundary_loops(Q)[0]
@@ -73,8 +74,8 @@ def no_heavy_work(monkeypatch):
 
     monkeypatch.setattr(coarse_mod, "coarse_net", boom)
     monkeypatch.setattr(subdivide_mod, "catmull_clark", boom)
-    import components.pull as pull_mod
-    import components.planarize as planarize_mod
+    import components.subdivision.pull as pull_mod
+    import components.planarize.planarizer as planarize_mod
 
     monkeypatch.setattr(pull_mod, "pulled_vertices", boom)
     monkeypatch.setattr(planarize_mod, "planarize_mesh", boom)

@@ -8,9 +8,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from components import surfaces
-from components.mesh import InputError, boundary_loops, read_mesh, validate_mesh, vertex_valence
-from components.surfaces import (
+from components.surfaces import generators as surfaces
+from components.core.checks import validate_mesh
+from components.core.errors import InputError
+from components.core.mesh import boundary_loops, read_mesh, vertex_valence
+from components.surfaces.generators import (
     _quad_planarity,
     grid_quads,
     paraboloid_surface,
@@ -19,7 +21,7 @@ from components.surfaces import (
     surface_points,
     translation_surface,
 )
-from components.types import NurbsCurve, NurbsSurface
+from components.core.types import NurbsCurve, NurbsSurface
 from tests.conftest import shared_file
 
 rhino3dm = pytest.importorskip("rhino3dm")
@@ -454,7 +456,7 @@ def test_grid_quads_wraps():
 
 def test_published_components_register():
     registry = pytest.importorskip("ghserver.registry")
-    from components import samples
+    from components.surfaces import samples
 
     for fn, uri in ((translation_surface, "surfaces/translation"),
                     (scale_translation_surface, "surfaces/scale_translation"),

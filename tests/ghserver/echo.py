@@ -5,8 +5,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.mesh import InputError
-from components.types import (Curve, Curves, Integers, Line, Lines, Mesh, Meshes, NurbsSurface, Numbers, Plane,
+from components.core.errors import InputError
+from components.core.types import (Curve, Curves, Integers, Line, Lines, Mesh, Meshes, NurbsSurface, Numbers, Plane,
                               Point, Points, Texts, Tree, Vector, Vectors)
 
 
@@ -260,7 +260,7 @@ def foo(Mesh: Mesh, Distance: float = 1.0) -> FooResult:
     Area : float
         Area of the mesh.
     """
-    from components.mesh import face_normals
+    from components.core.mesh import face_normals
 
     V, F = Mesh
     N = face_normals(V, F, unit=False)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import rhino3dm
 
-from components.mesh import pad_faces, quad_grid
-from components.types import NurbsCurve, NurbsSurface
+from components.core.mesh import pad_faces, quad_grid
+from components.core.types import NurbsCurve, NurbsSurface
 from ghserver import convert
 from tests.ghserver.conftest import shared_json
 

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from components.mesh import quad_grid
+from components.core.mesh import quad_grid
 from ghserver import convert
 from ghserver.app import Config, create_app
 from ghserver.endpoints import COMPONENTS

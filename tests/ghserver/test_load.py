@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import requests
 
-from components.mesh import quad_grid
-from components.metrics import quad_planarity
+from components.core.mesh import quad_grid
+from components.metrics.quality import quad_planarity
 from ghserver import convert
 from ghserver.app import Config, create_app
 from ghserver.workers import _rss_mb

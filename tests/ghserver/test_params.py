@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from components.types import NurbsCurve, Plane
+from components.core.types import NurbsCurve, Plane
 from ghserver import params as P
 
 

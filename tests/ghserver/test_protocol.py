@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import rhino3dm
 
-from components.mesh import quad_grid
+from components.core.mesh import quad_grid
 from ghserver import convert
 from ghserver.app import Config, create_app
 from ghserver.protocol import parse_path, pointer_uri
@@ -219,7 +219,7 @@ def test_7_geometry_round_trip_every_kind(client):
 
 
 def test_7_surface_input(client):
-    from components.types import NurbsSurface
+    from components.core.types import NurbsSurface
 
     P = np.zeros((3, 3, 3))
     P[..., 0], P[..., 1] = np.meshgrid(np.arange(3.0), np.arange(3.0), indexing="ij")

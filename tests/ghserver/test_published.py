@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.mesh import quad_grid
-from components.types import NurbsCurve, NurbsSurface
+from components.core.mesh import quad_grid
+from components.core.types import NurbsCurve, NurbsSurface
 from ghserver.client import Client
 from ghserver.endpoints import build_registry
 
@@ -28,7 +28,7 @@ def _paraboloid(n):
 
 
 def dome_grid_tri():
-    from components.mesh import triangulate
+    from components.core.mesh import triangulate
 
     V, Q = _paraboloid(24)
     return V, triangulate(Q)[0]
@@ -44,7 +44,7 @@ def bumpy_dome():
 
 
 def dome_tri(n=12):
-    from components.samples import sample_mesh
+    from components.surfaces.samples import sample_mesh
 
     V, T, _ = sample_mesh("dome", n)
     return V, T
@@ -63,7 +63,7 @@ def _surface():
 
 
 def saddle_tri():
-    from components.samples import sample_mesh
+    from components.surfaces.samples import sample_mesh
 
     V, T, _ = sample_mesh("saddle", 16)
     return V, T

@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import pytest
 
-from components.types import Mesh, Numbers
+from components.core.types import Mesh, Numbers
 from ghserver.registry import RegistrationError, Registry, _entries, _sections, declare
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import requests
 
-from components.mesh import quad_grid
+from components.core.mesh import quad_grid
 from ghserver import convert
 from ghserver.app import Config, create_app
 from ghserver.cli import build_parser, config_from_args

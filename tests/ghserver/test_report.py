@@ -1,4 +1,4 @@
-"""The comparison report (ghserver.report) and the strategy registry behind it (components.strategies).
+"""The comparison report (ghserver.report) and the strategy registry behind it (components.harness).
 
 One quick report (all built-in surfaces, all strategies) is generated per session into a temporary folder; the tests
 check its files: pictures are PNGs of the fixed size with real content, their colour-bar limits are the metrics'
@@ -16,11 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from components import strategies as st
+from components import harness as st
 from ghserver.cli import main as cli_main
-from components.mesh import InputError, boundary_loops, write_obj
-from components.metrics import quad_planarity, vertex_distances
-from components.samples import SAMPLE_NAMES, sample_mesh
+from components.core.errors import InputError
+from components.core.mesh import boundary_loops, write_obj
+from components.metrics.quality import quad_planarity, vertex_distances
+from components.surfaces.samples import SAMPLE_NAMES, sample_mesh
 from ghserver import report as rp
 
 # ----------------------------------------------------------------------------------------------
@@ -193,7 +194,7 @@ def test_colour_bar_limits_are_the_metrics(quick_report):
 
 def test_face_values_recomputed_from_the_written_meshes(quick_report):
     """The pictures' numbers come from the meshes written next to them."""
-    from components.mesh import read_mesh
+    from components.core.mesh import read_mesh
 
     summary, data = quick_report
     r = next(r for r in data["results"] if r["strategy"] == "subdivision" and r["surface"] == "saddle")
@@ -304,7 +305,7 @@ def test_translation_candidate_is_exactly_planar_and_close(name):
 
 def test_translation_fits_a_hyperbolic_paraboloid_along_its_bisectors():
     """z = xy is the translation surface of two parabolas along the diagonals: the fit is exact there."""
-    from components.mesh import quad_grid, triangulate
+    from components.core.mesh import quad_grid, triangulate
 
     V, Q = quad_grid(20, 20, 2.0, 2.0, height=lambda x, y: (x - 1) * (y - 1))
     T = triangulate(Q)[0]

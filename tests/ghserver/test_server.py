@@ -13,7 +13,7 @@ import pytest
 import requests
 import rhino3dm
 
-from components.mesh import quad_grid
+from components.core.mesh import quad_grid
 from ghserver import convert
 from ghserver.client import Client, ClientError
 from tests.ghserver.conftest import hops_body, hops_tree, shared_json

@@ -1,0 +1,243 @@
+"""Conical optimization: planarity + conical angle criterion + closeness through the planarization solver.
+
+A candidate quad mesh laid along the curvature lines is nearly conical already; this module makes it exactly
+conical (Liu et al. 2006) with :func:`components.planarize.planarizer.planarize_mesh`, whose hard rows are the face planarity
+residuals and, with ``conical_weight > 0``, the angle criterion ``ω1 − ω2 + ω3 − ω4`` at every interior valence-4
+vertex, while its soft goals keep the mesh close to the design surface and fair. By default the solve is
+**polished** to near machine precision (planarity ~1e-10): a face offset at distance ``d`` needs the face planes
+to be exact, since a planarity ``p`` shows up as an offset error of about ``p`` × edge length, independent of
+``d``. The Gauss-Newton steps converge quadratically, so the polish costs a few more iterations.
+
+The conical verdict is :func:`components.conical.cones.conical_check` (cone fit of the face normals, tolerance widened
+by the local planarity; the angle criterion reported beside it).
+
+Array-level: :func:`optimize_conical`. Published: :func:`conical_optimize`.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from components.conical.cones import conical_check, conical_criterion
+from components.core.checks import validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import edge_topology
+from components.core.types import Mesh, Numbers
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "ConicalOptimizeResult",
+    "ConicalOptimization",
+    "conical_optimize",
+    "optimize_conical",
+]
+
+
+class ConicalOptimization(NamedTuple):
+    """Result of :func:`optimize_conical`."""
+
+    V: np.ndarray  # (n, 3) optimized vertices
+    F: np.ndarray  # (m, k) faces (unchanged)
+    max_planarity: float
+    max_criterion: float  # max |ω1 − ω2 + ω3 − ω4| over interior valence-4 vertices, radians
+    max_cone_deviation: float  # over checked vertices, radians
+    mean_closeness: float  # model units: to the reference, else to the start positions
+    max_closeness: float
+    mean_edge_length: float
+    iterations: int
+    converged: bool  # planarity and criterion within the tolerance
+    worst_corner_angle: float  # degrees
+    warnings: list
+
+
+def optimize_conical(V, F, reference=None, *, closeness_weight: float = 1.0, fairness_weight: float = 0.01,
+                     tolerance: float = 1e-4, polish: bool = True, boundary: str = "free",
+                     max_iterations: int = 100, time_budget: float = 30.0,
+                     mesh_name: str = "mesh") -> ConicalOptimization:
+    """Make a quad mesh conical and planar while it stays close to a reference surface.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices of a (near-)curvature-line quad mesh.
+    F : (m, k) int64
+        Faces, consistently oriented (quads, with some other polygons).
+    reference : tuple (Vr, Fr), optional
+        Design surface to stay close to; without it, closeness is to the start mesh.
+    closeness_weight : float
+        Weight of the pull to the reference (see :func:`components.planarize.planarizer.planarize_mesh`).
+    fairness_weight : float
+        Weight of the fairness goal.
+    tolerance : float
+        Largest accepted planarity (scale-free) and angle criterion (radians) for ``converged``.
+    polish : bool
+        Drive planarity to ~1e-10 (and the criterion with it) so that face offsets are exact; otherwise stop at
+        ``tolerance``.
+    boundary : {"free", "slide", "fixed"}
+        Boundary vertices free, sliding on the reference's boundary, or fixed.
+    max_iterations : int
+        Iteration cap of the solver.
+    time_budget : float
+        Wall-clock budget in seconds.
+    mesh_name : str
+        Name of the mesh in error messages.
+
+    Returns
+    -------
+    ConicalOptimization
+
+    Raises
+    ------
+    MeshError
+        Malformed mesh or reference.
+    InputError
+        Bad weights or options.
+
+    Notes
+    -----
+    Liu, Pottmann, Wallner, Yang, Wang, *Geometric modeling with conical meshes and developable surfaces*,
+    SIGGRAPH 2006 (the angle criterion as a constraint); Tang, Sun, Gomes, Wallner, Pottmann, *Form-finding with
+    polyhedral meshes made simple*, SIGGRAPH 2014 (the guided projection solver of :mod:`components.planarize.planarizer`).
+    """
+    from components.planarize.planarizer import planarize_mesh
+
+    tol = float(tolerance)
+    if not math.isfinite(tol) or tol <= 0:
+        raise InputError("tolerance", f"must be a positive number, got {tolerance!r}")
+    V, F = validate_mesh(V, F, name=mesh_name)
+    res = planarize_mesh(V, F, reference, closeness_weight=closeness_weight, fairness_weight=fairness_weight,
+                         conical_weight=1.0, boundary=boundary, tolerance=min(tol, 1e-10) if polish else tol,
+                         max_iterations=max_iterations, time_budget=time_budget, mesh_name=mesh_name)
+    X = res.mesh[0]
+    warnings = [w for w in res.warnings if not (polish and w.startswith("tolerance not reached"))]
+    _, crit = conical_criterion(X, F)
+    max_crit = float(np.abs(crit).max()) if len(crit) else 0.0
+    chk = conical_check(X, F, tol)
+    max_dev = float(chk.deviation[chk.checked].max()) if chk.checked.any() else 0.0
+    E = edge_topology(F).E
+    L = float(np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1).mean())
+    converged = res.max_planarity <= tol and max_crit <= tol
+    if not len(crit):
+        warnings.append("no interior valence-4 vertex: the conical criterion constrains nothing")
+    if not converged:
+        warnings.append(f"conical optimization did not reach {tol:g} ({res.stop_reason}): max planarity "
+                        f"{res.max_planarity:.2e}, max angle criterion {max_crit:.2e} rad")
+    elif polish and (res.max_planarity > 1e-8 or max_crit > 1e-7):
+        warnings.append(f"the polish stopped at planarity {res.max_planarity:.1e} / criterion {max_crit:.1e} "
+                        f"({res.stop_reason}): face offsets are exact only to about planarity × edge length")
+    return ConicalOptimization(X, F, res.max_planarity, max_crit, max_dev, res.mean_closeness, res.max_closeness,
+                               L, res.iterations, bool(converged), res.worst_corner_angle, warnings)
+
+
+# ----------------------------------------------------------------------------------------------
+# published component
+
+
+class ConicalOptimizeResult(NamedTuple):
+    optimized: Mesh
+    max_planarity: float
+    max_criterion: float
+    max_cone_deviation: float
+    criterion: Numbers
+    mean_closeness: float
+    relative_closeness: float
+    is_conical: bool
+    iterations: int
+    warnings: list[str]
+
+
+def conical_optimize(mesh: Mesh, reference: Mesh | None = None, closeness_weight: float = 1.0,
+                     fairness_weight: float = 0.01, tolerance: float = 1e-4, polish: bool = True,
+                     boundary: str = "free", max_iterations: int = 100,
+                     time_budget: float = 30.0) -> ConicalOptimizeResult:
+    """Optimize a quad mesh into a conical mesh: planar faces, angle criterion at every vertex, close to the surface.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The quad-dominant mesh ``(V, F)``, ideally laid along the curvature lines (nearly conical already).
+    reference : Mesh | None
+        The design surface to stay close to (optional; without it the start mesh is the reference).
+    closeness_weight : float
+        Weight of the pull towards the reference.
+    fairness_weight : float
+        Weight of the fairness goal (smooth mesh polylines).
+    tolerance : float
+        Largest accepted planarity (scale-free) and angle criterion ``|ω1 − ω2 + ω3 − ω4|`` (radians).
+    polish : bool
+        Drive planarity and the criterion to about 1e-10 so that face offsets are exact.
+    boundary : str
+        Boundary vertices ``"free"``, ``"slide"`` (on the reference's boundary) or ``"fixed"``.
+    max_iterations : int
+        Iteration cap of the solver.
+    time_budget : float
+        Wall-clock budget in seconds.
+
+    Returns
+    -------
+    optimized : Mesh
+        The conical mesh.
+    max_planarity : float
+        Largest face planarity (scale-free).
+    max_criterion : float
+        Largest angle criterion at interior valence-4 vertices (radians).
+    max_cone_deviation : float
+        Largest cone-normal deviation at interior vertices with four or more faces (radians).
+    criterion : Numbers
+        Per vertex ``|ω1 − ω2 + ω3 − ω4|`` (0 where not applicable).
+    mean_closeness : float
+        Mean distance of the vertices to the reference (model units).
+    relative_closeness : float
+        Mean closeness divided by the mean edge length.
+    is_conical : bool
+        Planarity and criterion within the tolerance.
+    iterations : int
+        Solver iterations.
+
+    Raises
+    ------
+    MeshError
+        Malformed mesh or reference (named).
+    InputError
+        Bad weights, tolerance or boundary mode.
+
+    Notes
+    -----
+    Liu et al. 2006 (conical meshes); Tang et al. 2014 (guided projection). The face offset of the result at a
+    distance ``d`` keeps every face plane at ``d`` (see :func:`components.conical.cones.offset_mesh`).
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid
+    >>> conical_optimize(quad_grid(3, 3)).is_conical
+    True
+    """
+    if not (isinstance(mesh, (tuple, list)) and len(mesh) >= 2):
+        raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
+    ref = None
+    if reference is not None:
+        if not (isinstance(reference, (tuple, list)) and len(reference) >= 2):
+            raise MeshError("reference", "expected a (V, F) tuple of vertices and faces")
+        ref = (reference[0], reference[1])
+    res = optimize_conical(mesh[0], mesh[1], ref, closeness_weight=closeness_weight,
+                           fairness_weight=fairness_weight, tolerance=tolerance, polish=bool(polish),
+                           boundary=boundary, max_iterations=max_iterations, time_budget=time_budget)
+    verts, crit = conical_criterion(res.V, res.F)
+    c = np.zeros(len(res.V))
+    c[verts] = np.abs(crit)
+    return ConicalOptimizeResult(
+        optimized=(res.V, res.F),
+        max_planarity=res.max_planarity,
+        max_criterion=res.max_criterion,
+        max_cone_deviation=res.max_cone_deviation,
+        criterion=c,
+        mean_closeness=res.mean_closeness,
+        relative_closeness=res.mean_closeness / max(res.mean_edge_length, 1e-300),
+        is_conical=res.converged,
+        iterations=res.iterations,
+        warnings=res.warnings,
+    )

@@ -1,0 +1,296 @@
+"""Input checks: the one place where a failure of an input is worded.
+
+Every check takes the value as received and the input's name, returns the value in canonical form and raises an
+:class:`~components.core.errors.InputError` (or :class:`~components.core.errors.MeshError`) whose message starts
+with that name. One wording per kind of failure (see ``docs/architecture.md``).
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Iterable
+
+import numpy as np
+
+from components.core.errors import InputError, MeshError
+from components.core.mesh import bounding_box_diagonal, edge_topology, face_normals, face_sizes, halfedges
+
+__all__ = ["check_int", "check_number", "check_choice", "check_points", "check_mesh", "validate_mesh",
+           "MESH_KINDS"]
+
+#: the values of ``validate_mesh(kind=...)``
+MESH_KINDS = ("any", "tri", "quad", "quad_dominant")
+
+
+def check_int(value, name: str, lo: int | None = None, hi: int | None = None) -> int:
+    """A whole-number input: an int, a numpy integer or an integral float (``3.0``), never a bool.
+
+    Parameters
+    ----------
+    value : object
+        The input as received.
+    name : str
+        The input's name (starts the error message).
+    lo, hi : int or None
+        Inclusive bounds; ``None`` leaves that side open.
+
+    Returns
+    -------
+    int
+        ``int(value)``.
+
+    Raises
+    ------
+    InputError
+        ``"<name>: must be a whole number, got …"`` or ``"<name>: must be <lo> or more, got …"`` /
+        ``"must be between <lo> and <hi>, got …"`` / ``"must be <hi> or less, got …"``.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value).is_integer():
+        raise InputError(name, f"must be a whole number, got {value!r}")
+    v = int(value)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        if hi is None:
+            raise InputError(name, f"must be {lo} or more, got {v}")
+        if lo is None:
+            raise InputError(name, f"must be {hi} or less, got {v}")
+        raise InputError(name, f"must be between {lo} and {hi}, got {v}")
+    return v
+
+
+def check_number(value, name: str, lo: float | None = None, *, above: bool = False, finite: bool = True) -> float:
+    """A real-number input (int, float or numpy scalar, never a bool), optionally bounded below.
+
+    Parameters
+    ----------
+    value : object
+        The input as received.
+    name : str
+        The input's name (starts the error message).
+    lo : float or None
+        Lower bound; ``None`` for none.
+    above : bool
+        ``True``: the value must be strictly greater than ``lo`` (``lo=0, above=True`` = positive).
+    finite : bool
+        Reject ``±inf`` (NaN is always rejected).
+
+    Returns
+    -------
+    float
+        ``float(value)``.
+
+    Raises
+    ------
+    InputError
+        ``"<name>: must be a number, got …"`` or ``"<name>: must be a finite number >= <lo>, got …"``.
+    """
+    if isinstance(value, bool):
+        raise InputError(name, f"must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {value!r}") from None
+    bad = math.isnan(x) or (finite and math.isinf(x))
+    if lo is not None:
+        bad = bad or x < lo or (above and x == lo)
+    if bad:
+        what = "a finite number" if finite else "a number"
+        if lo is not None:
+            what += f" {'>' if above else '>='} {lo:g}"
+        raise InputError(name, f"must be {what}, got {value!r}")
+    return x
+
+
+def check_choice(value, name: str, choices: Iterable[str], *, casefold: bool = False) -> str:
+    """A text input that must be one of a fixed set of words.
+
+    Parameters
+    ----------
+    value : object
+        The input as received.
+    name : str
+        The input's name (starts the error message).
+    choices : iterable of str
+        The accepted words.
+    casefold : bool
+        Accept any letter case (the canonical lower-case word is returned).
+
+    Returns
+    -------
+    str
+        The accepted word.
+
+    Raises
+    ------
+    InputError
+        ``"<name>: must be one of 'a', 'b', got 'x'"``.
+
+    Examples
+    --------
+    >>> check_choice("Snap", "boundary", ("snap", "free"), casefold=True)
+    'snap'
+    """
+    choices = tuple(choices)
+    word = value.lower() if casefold and isinstance(value, str) else value
+    if not isinstance(word, str) or word not in choices:
+        raise InputError(name, f"must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+    return word
+
+
+def check_points(P, name: str, *, allow_empty: bool = True) -> np.ndarray:
+    """A list of 3D points: ``(n, 3)`` float64, finite; ``None`` or an empty list gives ``(0, 3)``.
+
+    A single point ``(3,)`` is taken as one row.
+
+    Raises
+    ------
+    InputError
+        ``"<name>: must be points with shape (n, 3), got shape …"``, ``"<name>: point i has a NaN or infinite
+        coordinate"`` or, with ``allow_empty=False``, ``"<name>: must not be empty"``.
+
+    Examples
+    --------
+    >>> check_points([0, 0, 1], "anchors").shape
+    (1, 3)
+    """
+    if P is None:
+        A = np.zeros((0, 3))
+    else:
+        try:
+            A = np.asarray(P, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError(name, "must be points with shape (n, 3)") from None
+        if A.size == 0:
+            A = np.zeros((0, 3))
+        elif A.ndim == 1 and A.size == 3:
+            A = A[None]
+    if A.ndim != 2 or A.shape[1] != 3:
+        raise InputError(name, f"must be points with shape (n, 3), got shape {A.shape}")
+    bad = ~np.isfinite(A).all(axis=1)
+    if bad.any():
+        raise InputError(name, f"point {int(np.argmax(bad))} has a NaN or infinite coordinate")
+    if not allow_empty and len(A) == 0:
+        raise InputError(name, "must not be empty")
+    return np.ascontiguousarray(A)
+
+
+def check_mesh(mesh, name: str = "mesh", **kwargs) -> tuple[np.ndarray, np.ndarray]:
+    """A ``Mesh`` input: a ``(V, F)`` pair, checked by :func:`validate_mesh` (keyword options passed on).
+
+    Raises
+    ------
+    MeshError
+        ``"<name>: must be a (V, F) pair of vertex and face arrays"`` or what :func:`validate_mesh` says.
+    """
+    if not isinstance(mesh, (tuple, list)) or len(mesh) < 2:
+        raise MeshError(name, "must be a (V, F) pair of vertex and face arrays")
+    return validate_mesh(mesh[0], mesh[1], name=name, **kwargs)
+
+
+def validate_mesh(
+    V,
+    F,
+    name: str = "mesh",
+    kind: str = "any",
+    allow_degenerate: bool = False,
+    manifold: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Check a mesh once, at the boundary, and return it in canonical form.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like of float
+        Vertex positions.
+    F : (m, k) array_like of int
+        Faces (k ≥ 3), short faces padded by repeating their last vertex.
+    name : str
+        Name of the input, used in every error message.
+    kind : {"any", "tri", "quad", "quad_dominant"}
+        ``"tri"`` requires triangles only, ``"quad"`` quads only, ``"quad_dominant"`` at least one quad.
+    allow_degenerate : bool
+        Accept faces with repeated corners or zero area.
+    manifold : bool
+        Require every edge to have at most two faces, with consistent orientation.
+
+    Returns
+    -------
+    V : (n, 3) float64, C-contiguous
+    F : (m, k) int64, C-contiguous
+
+    Raises
+    ------
+    MeshError
+        Naming the input and the first offending vertex, face or edge.
+    ValueError
+        ``kind`` is not one of :data:`MESH_KINDS` (a programming error, not an input error).
+    """
+    if kind not in MESH_KINDS:
+        raise ValueError(f"validate_mesh: kind must be one of {', '.join(MESH_KINDS)}, got {kind!r}")
+    try:
+        V = np.ascontiguousarray(V, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise MeshError(name, f"vertices are not numbers ({exc})") from None
+    try:
+        F_in = np.asarray(F)
+        if F_in.size and not np.issubdtype(F_in.dtype, np.integer):
+            if not np.all(np.isfinite(F_in)) or np.any(F_in != np.round(F_in)):
+                raise MeshError(name, "face indices must be integers")
+        F = np.ascontiguousarray(F_in, dtype=np.int64)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, MeshError):
+            raise
+        raise MeshError(name, f"faces are not integer indices ({exc})") from None
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise MeshError(name, f"vertices must have shape (n, 3), got {V.shape}")
+    if F.ndim != 2 or (F.shape[0] and F.shape[1] < 3):
+        raise MeshError(name, f"faces must have shape (m, k) with k >= 3, got {F.shape}")
+    if len(V) == 0 or len(F) == 0:
+        raise MeshError(name, f"mesh is empty ({len(V)} vertices, {len(F)} faces)")
+    bad = ~np.isfinite(V).all(axis=1)
+    if bad.any():
+        raise MeshError(name, f"vertex {int(np.argmax(bad))} has a NaN or infinite coordinate")
+    out = (F < 0) | (F >= len(V))
+    if out.any():
+        i = int(np.argmax(out.any(axis=1)))
+        raise MeshError(name, f"face {i} has a vertex index out of range 0..{len(V) - 1}: {F[i].tolist()}")
+    sizes = face_sizes(F)
+    if kind == "tri" and np.any(sizes != 3):
+        i = int(np.argmax(sizes != 3))
+        raise MeshError(name, f"a triangle mesh is required but face {i} has {sizes[i]} corners")
+    if kind == "quad" and np.any(sizes != 4):
+        i = int(np.argmax(sizes != 4))
+        raise MeshError(name, f"a quad mesh is required but face {i} has {sizes[i]} corners")
+    if kind == "quad_dominant" and not np.any(sizes == 4):
+        raise MeshError(name, "a quad or quad-dominant mesh is required but it has no quads")
+    if not allow_degenerate:
+        if np.any(sizes < 3):
+            i = int(np.argmax(sizes < 3))
+            raise MeshError(name, f"face {i} is degenerate (fewer than 3 distinct corners): {F[i].tolist()}")
+        k = F.shape[1]
+        valid = np.arange(k)[None, :] < sizes[:, None]
+        Fs = np.sort(np.where(valid, F, -1 - np.arange(k)[None, :]), axis=1)
+        rep = (Fs[:, 1:] == Fs[:, :-1]).any(axis=1)
+        if rep.any():
+            i = int(np.argmax(rep))
+            raise MeshError(name, f"face {i} repeats a vertex: {F[i].tolist()}")
+        area = np.linalg.norm(face_normals(V, F, unit=False), axis=1)
+        scale = bounding_box_diagonal(V)
+        tiny = area <= (1e-14 * scale * scale if scale > 0 else 0.0)
+        if tiny.any():
+            i = int(np.argmax(tiny))
+            raise MeshError(name, f"face {i} is degenerate (zero area): {F[i].tolist()}")
+    if manifold:
+        H, _ = halfedges(F)
+        topo = edge_topology(F)
+        if np.any(topo.count > 2):
+            e = int(np.argmax(topo.count > 2))
+            a, b = topo.E[e].tolist()
+            raise MeshError(name, f"edge ({a}, {b}) is non-manifold: it has {int(topo.count[e])} faces")
+        # consistent orientation: each directed half-edge appears once (one int64 key per half-edge)
+        dkey = np.sort(H[:, 0] * np.int64(len(V)) + H[:, 1])
+        twice = np.nonzero(dkey[1:] == dkey[:-1])[0]
+        if len(twice):
+            a, b = divmod(int(dkey[twice[0]]), len(V))
+            raise MeshError(
+                name, f"faces are not consistently oriented: edge ({a}, {b}) is used twice in the same direction"
+            )
+    return V, F

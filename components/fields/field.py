@@ -1,0 +1,985 @@
+"""Smooth and conjugate direction fields on triangle meshes: PolyVector smoothing, Liu-style conjugate optimization,
+singularities.
+
+A direction field is, per triangle, a pair of unit tangent vectors ``U, W`` (not necessarily orthogonal) standing
+for the 4-fold set ``(±U, ±W)``. Quads laid along a field are planar to first order where the two directions are
+conjugate with respect to the surface's shape operator (``II(U, W) = 0``); principal directions are conjugate and
+orthogonal, but they carry many singularities, so the pipeline smooths them first (:func:`smooth_field`) and then
+makes the smooth field conjugate (:func:`conjugate_field`).
+
+PolyVector representation (Diamanti et al. 2014): in a face's complex frame the pair ``(u, v)`` is the polynomial
+``(z² − u²)(z² − v²) = z⁴ − Y z² + X`` with ``X = u² v²`` and ``Y = u² + v²``, invariant under ``±u, ±v`` and the
+swap, so no matching is needed while optimizing. Carrying a field from face ``f`` to its neighbour ``g`` multiplies
+``u`` by ``r = e^{iκ}`` (the connection), hence ``X`` by ``r⁴`` and ``Y`` by ``r²``: the smoothness energy
+``Σ_edges w |c_g − r^k c_f|²`` is a Hermitian quadratic form, and soft alignment terms make each coefficient the
+solution of one sparse linear system (``X`` and ``Y`` decouple). An orthogonal cross has ``Y = 0``.
+
+Weights are resolution independent: per-face terms are scaled by the face's share of the total area, so the
+``alignment`` knob means the same on 2k and 200k triangles. The smoothing length is about
+``sqrt(area / (1000 · alignment))``: 10% of the surface's size at the default 0.1.
+
+References
+----------
+O. Diamanti, A. Vaxman, D. Panozzo, O. Sorkine-Hornung, "Designing N-PolyVector fields with complex polynomials",
+Computer Graphics Forum (SGP) 33(5), 2014.
+Y. Liu, W. Xu, J. Wang, L. Zhu, B. Guo, F. Chen, G. Wang, "General planar quadrilateral mesh design using conjugate
+direction field", ACM Trans. Graph. (SIGGRAPH Asia) 30(6), 2011.
+O. Diamanti, A. Vaxman, D. Panozzo, O. Sorkine-Hornung, "Integrable PolyVector fields", SIGGRAPH 2015 (libigl's
+``conjugate_frame_fields`` follows the local-global scheme of Liu et al.).
+"""
+from __future__ import annotations
+
+import logging
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from components.core.curvature import face_principal_curvature, vertex_principal_curvature
+from components.fields.frames import (
+    DualGraph,
+    FaceFrames,
+    comb_field,
+    dual_graph,
+    face_frames,
+    field_matching,
+    field_singularities,
+    from_complex,
+    to_complex,
+    check_field,
+)
+from components.core.checks import check_number, validate_mesh
+from components.core.errors import InputError
+from components.core.mesh import triangulate
+from components.core.types import Lines, Mesh, Numbers, Points, Vectors
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "Field",
+    "FieldCurvature",
+    "comb_field",
+    "conjugacy_error",
+    "conjugate_field",
+    "conjugate_direction_field",
+    "field_curvature",
+    "field_matching",
+    "field_singularities",
+    "smooth_direction_field",
+    "smooth_field",
+]
+
+_AREA_SCALE = 1000.0  # per-face weights: alignment · 1000 · (face area / total area)
+
+
+class Field(NamedTuple):
+    """A direction field on the triangles of a mesh and its diagnostics.
+
+    ``U, W`` (m, 3) unit tangent directions (combed: ``U`` continues as ``U`` across all edges but a cut graph;
+    ``W`` counter-clockwise from ``U``), ``singularities`` (k,) interior vertex indices, ``singularity_index`` (k,)
+    their indices (multiples of 1/4), ``alignment_error`` (m,) angle in radians between the field and the
+    principal directions (the larger of the two directions' angles to the nearest principal line),
+    ``conjugacy_error`` (m,) ``|II(U, W)| / (|k1| + |k2|)`` (0 for a conjugate pair), ``anisotropy`` (m,) the
+    curvature anisotropy used as alignment weight, ``released`` (m,) bool: faces a conjugate field released from
+    conjugacy (``None`` for other fields).
+    """
+
+    U: np.ndarray
+    W: np.ndarray
+    singularities: np.ndarray
+    singularity_index: np.ndarray
+    alignment_error: np.ndarray
+    conjugacy_error: np.ndarray
+    anisotropy: np.ndarray
+    released: np.ndarray | None = None
+
+
+class FieldCurvature(NamedTuple):
+    """Per-face shape operator in principal form: unit directions ``d1, d2`` (m, 3) and curvatures ``k1 ≥ k2``."""
+
+    d1: np.ndarray
+    d2: np.ndarray
+    k1: np.ndarray
+    k2: np.ndarray
+
+
+# ----------------------------------------------------------------------------------------------
+# inputs
+
+
+def _mesh_arrays(V, T, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    V, T = validate_mesh(V, T, name=name, kind="tri")
+    return V, T
+
+
+def _check_int(value, name: str, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= int(value) <= hi:
+        raise InputError(name, f"must be an integer from {lo} to {hi}, got {value!r}")
+    return int(value)
+
+
+def field_curvature(V: np.ndarray, T: np.ndarray, radius: int = 2) -> FieldCurvature:
+    """Per-face principal directions and curvatures from the quadric fit of :mod:`components.core.curvature`.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices.
+    T : (m, 3) int64
+        Triangles.
+    radius : int
+        Ring size of the per-vertex fit.
+
+    Returns
+    -------
+    FieldCurvature
+        ``d1, d2`` (m, 3) in the face planes, ``k1, k2`` (m,).
+    """
+    PD1, PD2, PV1, PV2 = vertex_principal_curvature(V, T, radius=radius)
+    return FieldCurvature(*face_principal_curvature(V, T, PD1, PD2, PV1, PV2))
+
+
+def _curvature_arg(curvature, V, T, radius, m) -> FieldCurvature:
+    if curvature is None:
+        return field_curvature(V, T, radius)
+    try:
+        d1, d2, k1, k2 = (np.asarray(x, dtype=np.float64) for x in curvature)
+    except (TypeError, ValueError) as exc:
+        raise InputError("curvature", f"must be (d1, d2, k1, k2) per face ({exc})") from None
+    if d1.shape != (m, 3) or d2.shape != (m, 3) or k1.shape != (m,) or k2.shape != (m,):
+        raise InputError("curvature", f"must be (d1, d2, k1, k2) with shapes ({m}, 3), ({m}, 3), ({m},), ({m},)")
+    if not all(np.isfinite(x).all() for x in (d1, d2, k1, k2)):
+        raise InputError("curvature", "has NaN or infinite values")
+    return FieldCurvature(d1, d2, k1, k2)
+
+
+def _constraints_arg(constraints, m: int, fr: FaceFrames):
+    """``(faces, directions)`` → face indices and complex ``(X, Y)`` targets; one direction fixes one root."""
+    if constraints is None:
+        return None
+    faces, Z = _constraint_directions(constraints, m, fr)
+    if Z.shape[1] == 2:
+        u, v = Z[:, 0], Z[:, 1]
+        return faces, u * u * v * v, u * u + v * v
+    u = Z[:, 0]
+    return faces, -(u ** 4), np.zeros(len(faces), dtype=complex)
+
+
+def _constraint_directions(constraints, m: int, fr: FaceFrames):
+    """``(faces, directions)`` → face indices ``(c,)`` and unit complex directions ``(c, 1 or 2)``."""
+    try:
+        faces, dirs = constraints
+        faces = np.asarray(faces)
+        dirs = np.asarray(dirs, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError("constraints", f"must be (faces, directions) ({exc})") from None
+    if faces.ndim != 1 or (faces.size and not np.issubdtype(faces.dtype, np.integer)):
+        raise InputError("constraints", "faces must be a 1-D array of integer face indices")
+    faces = faces.astype(np.int64)
+    c = len(faces)
+    if dirs.shape == (c, 6):
+        dirs = dirs.reshape(c, 2, 3)
+    if dirs.shape not in ((c, 3), (c, 2, 3)):
+        raise InputError("constraints", f"directions must have shape ({c}, 3), ({c}, 2, 3) or ({c}, 6), got "
+                                        f"{dirs.shape}")
+    bad = (faces < 0) | (faces >= m)
+    if bad.any():
+        raise InputError("constraints", f"face {int(faces[np.argmax(bad)])} does not exist (the mesh has {m} "
+                                        "triangles)")
+    if len(np.unique(faces)) != c:
+        raise InputError("constraints", "a face is constrained twice")
+    if not np.isfinite(dirs).all():
+        raise InputError("constraints", "directions have NaN or infinite values")
+    two = dirs.ndim == 3
+    D = dirs if two else dirs[:, None, :]
+    zs = []
+    for j in range(D.shape[1]):
+        z = to_complex(D[:, j], fr, faces)
+        tangential = np.abs(z) > 1e-6 * np.maximum(np.linalg.norm(D[:, j], axis=1), 1e-300)
+        if not tangential.all():
+            raise InputError("constraints", f"direction for face {int(faces[np.argmax(~tangential)])} is zero or "
+                                            "normal to the face")
+        zs.append(z / np.abs(z))
+    return faces, np.stack(zs, axis=1)
+
+
+# ----------------------------------------------------------------------------------------------
+# the linear solves
+
+
+def _connection_laplacian(dg: DualGraph, m: int, degree: int) -> sp.csr_matrix:
+    """Hermitian form of ``Σ w |c_g − r^degree c_f|²``."""
+    rho = np.exp(1j * degree * dg.kappa)
+    w = dg.weight
+    rows = np.concatenate([dg.f, dg.g, dg.g, dg.f])
+    cols = np.concatenate([dg.f, dg.g, dg.f, dg.g])
+    vals = np.concatenate([w.astype(complex), w.astype(complex), -w * rho, -w * np.conj(rho)])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(m, m))
+
+
+def _factor(A: sp.spmatrix):
+    """Sparse LU of a Hermitian positive definite matrix: symmetric minimum-degree ordering, no pivoting.
+
+    The systems are Hermitian positive definite, so diagonal pivots are stable; forbidding row exchanges keeps the
+    symmetric ordering's fill (about half of COLAMD's on these meshes, see ``benchmarks/fields.py``), while SuperLU's
+    default partial pivoting made the factor time swing by 10–100× between runs.
+    """
+    return splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                options={"SymmetricMode": True})
+
+
+def _pinned_solver(A, free: np.ndarray, c: np.ndarray):
+    """Factor ``A`` on the ``free`` faces once; returns ``b ↦`` the solution with the other entries kept at ``c``."""
+    if free.all():
+        lu, fixed = _factor(A), 0.0
+    else:
+        lu, fixed = _factor(A[free][:, free]), A[free][:, ~free] @ c[~free]
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        out = c.copy()
+        out[free] = lu.solve(b[free] - fixed)
+        return out
+
+    return solve
+
+
+def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, guess=None):
+    """Minimize ``cᴴ L c + Σ w |c − t|²`` with optional pinned values; returns the coefficient per face.
+
+    Without any positive weight or pin the minimizer is zero; then the smoothest unit field (the eigenvector of the
+    smallest eigenvalue) is returned, found by inverse iteration.
+    """
+    m = L.shape[0]
+    free = np.ones(m, dtype=bool)
+    c = np.zeros(m, dtype=complex)
+    if pinned is not None and len(pinned[0]):
+        free[pinned[0]] = False
+        c[pinned[0]] = pinned[1]
+    A = (L + sp.diags(wface.astype(complex))).tocsr()
+    if np.any(wface[free] > 0) or not free.all():
+        return _pinned_solver(A, free, c)(wface * target)
+    # no data at all: inverse iteration on the (slightly shifted) Laplacian
+    scale = float(np.abs(L.diagonal()).mean()) or 1.0
+    lu = _factor(A + sp.identity(m, format="csr") * (1e-8 * scale))
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal(m) + 1j * rng.standard_normal(m) if guess is None else guess.astype(complex)
+    for _ in range(30):
+        x = lu.solve(x)
+        x /= np.linalg.norm(x)
+    return x
+
+
+def _spread_singularities(L, w: np.ndarray, t: np.ndarray, pinned, X: np.ndarray, area: np.ndarray, iterations: int,
+                          core: float = 3.0) -> np.ndarray:
+    """Normalize-and-diffuse iterations on a coefficient field ``X`` (one factorization for all).
+
+    Each step minimizes ``Xᴴ L X + Σ w |X − t|² + Σ μ |X − X̂|²`` with ``X̂ = X / |X|`` the normalized previous
+    field and ``μ_f = A_f / ε²``, ``ε`` = ``core`` mean triangle sizes: the Ginzburg–Landau core radius, so the
+    magnitude may only vanish within about ``ε`` of a singularity.
+    """
+    eps = core * float(np.sqrt(2.0 * area.mean()))
+    mu = area / (eps * eps)
+    free = np.ones(len(X), dtype=bool)
+    if pinned is not None and len(pinned[0]):
+        free[pinned[0]] = False
+    solve = _pinned_solver((L + sp.diags((w + mu).astype(complex))).tocsr(), free, X)
+    wt = w * t
+    for _ in range(iterations):
+        a = np.abs(X)
+        X = solve(wt + mu * np.divide(X, a, out=np.ones_like(X), where=a > 0))
+    return X
+
+
+def _roots(X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit complex ``u, v`` with ``(z² − u²)(z² − v²) ∝ z⁴ − Y z² + X``."""
+    disc = np.sqrt(Y * Y - 4.0 * X)
+    t1 = 0.5 * (Y + disc)
+    t2 = 0.5 * (Y - disc)
+    u = np.sqrt(t1)
+    v = np.sqrt(t2)
+    # degenerate coefficients (both zero): any orthogonal pair
+    zu = np.abs(u) == 0
+    u = np.where(zu, 1.0, u)
+    v = np.where(np.abs(v) == 0, 1j * u, v)
+    return u / np.abs(u), v / np.abs(v)
+
+
+def _poly(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u2, v2 = u * u, v * v
+    return u2 * v2, u2 + v2
+
+
+# ----------------------------------------------------------------------------------------------
+# diagnostics
+
+
+def _principal_complex(cv: FieldCurvature, fr: FaceFrames) -> np.ndarray:
+    z = to_complex(cv.d1, fr)
+    a = np.abs(z)
+    return np.where(a > 0, z / np.where(a > 0, a, 1.0), 1.0)
+
+
+def _anisotropy(cv: FieldCurvature) -> np.ndarray:
+    s = np.abs(cv.k1) + np.abs(cv.k2)
+    eps = 0.05 * float(np.mean(s)) if len(s) else 0.0
+    den = s + eps
+    return np.divide(np.abs(cv.k1 - cv.k2), den, out=np.zeros_like(s), where=den > 0)
+
+
+_ANISOTROPY_FLOOR = 0.1  # below this the principal directions are noise: no alignment at all
+
+
+def _alignment_weights(aniso: np.ndarray) -> np.ndarray:
+    return np.clip((aniso - _ANISOTROPY_FLOOR) / (1.0 - _ANISOTROPY_FLOOR), 0.0, 1.0)
+
+
+def conjugacy_error(U: np.ndarray, W: np.ndarray, curvature: FieldCurvature) -> np.ndarray:
+    """``|II(U, W)| / (|k1| + |k2|)`` per face for unit ``U, W`` (0 = conjugate; 0.5 at most for unit vectors).
+
+    Parameters
+    ----------
+    U, W : (m, 3) float64
+        Field directions.
+    curvature : FieldCurvature
+        Per-face shape operator (:func:`field_curvature`).
+
+    Returns
+    -------
+    (m,) float64
+        Scale-free conjugacy error; 0 on faces with zero curvature.
+    """
+    U = U / np.linalg.norm(U, axis=1, keepdims=True)
+    W = W / np.linalg.norm(W, axis=1, keepdims=True)
+    d1, d2, k1, k2 = curvature
+    II = (k1 * np.einsum("ij,ij->i", U, d1) * np.einsum("ij,ij->i", W, d1)
+          + k2 * np.einsum("ij,ij->i", U, d2) * np.einsum("ij,ij->i", W, d2))
+    s = np.abs(k1) + np.abs(k2)
+    return np.divide(np.abs(II), s, out=np.zeros_like(s), where=s > 0)
+
+
+def _alignment_error(U, W, cv: FieldCurvature, fr: FaceFrames) -> np.ndarray:
+    p = _principal_complex(cv, fr)
+    out = np.zeros(len(U))
+    for X in (U, W):
+        z = to_complex(X, fr) * np.conj(p)
+        a = np.mod(np.angle(z), 0.5 * np.pi)  # angle to the nearest principal line (cross symmetry)
+        out = np.maximum(out, np.minimum(a, 0.5 * np.pi - a))
+    return out
+
+
+def _finish(V, T, u, v, fr, dg, cv, aniso) -> Field:
+    U = from_complex(u, fr)
+    W = from_complex(v, fr)
+    U, W, _ = comb_field(V, T, U, W, fr, dg)
+    sing, index = field_singularities(V, T, U, W, fr, dg)
+    return Field(U, W, sing, index, _alignment_error(U, W, cv, fr), conjugacy_error(U, W, cv), aniso)
+
+
+# ----------------------------------------------------------------------------------------------
+# smooth field
+
+
+def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constraints=None,
+                 constraint_weight: float | None = None, align_boundary: bool = True, boundary_weight: float = 10.0,
+                 curvature: FieldCurvature | None = None, curvature_radius: int = 2,
+                 normalize_iterations: int = 20) -> Field:
+    """Smooth 4-PolyVector field softly aligned to the principal curvature directions.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices.
+    T : (m, 3) int64
+        Triangles: oriented, edge-manifold, open boundaries and holes allowed.
+    alignment : float
+        Weight of the pull towards the principal directions (≥ 0; each face weighted by its curvature
+        anisotropy and area share). Small = smoother, fewer singularities; large = closer to the principal
+        directions. 0 gives the smoothest field satisfying the constraints.
+    constraints : (faces, directions), optional
+        ``faces (c,) int`` and ``directions (c, 3)`` (one direction of the cross prescribed) or ``(c, 2, 3)``
+        (both directions prescribed; they may be non-orthogonal, the field then bends to a non-orthogonal
+        PolyVector near them).
+    constraint_weight : float, optional
+        ``None`` (default): hard constraints. A number: soft constraints with this weight per face (1 ≈ the
+        coupling of two neighbouring faces).
+    align_boundary : bool
+        Softly align one direction with the boundary on faces with a boundary edge.
+    boundary_weight : float
+        Weight per boundary edge of that alignment (relative to the coupling of two neighbouring faces).
+    curvature : FieldCurvature, optional
+        Per-face principal directions and curvatures (computed with :func:`field_curvature` when omitted).
+    curvature_radius : int
+        Ring size of the curvature fit when ``curvature`` is omitted.
+    normalize_iterations : int
+        Normalize-and-diffuse iterations after the linear solve (0 to 200; 0 = the plain linear field). The
+        linear solve lets the field's magnitude vanish over whole regions, so its singularities merge (on a dome
+        with an aligned boundary the four quarter-turn singularities fuse into one polar point with wedge-shaped
+        panels); each iteration re-solves with a pull of the face's mass towards the normalized field, which
+        separates them (Ginzburg–Landau / MBO scheme, Viertel & Osting 2019).
+
+    Returns
+    -------
+    Field
+        Combed ``U, W``, singular vertices with their indices, alignment error, conjugacy error, anisotropy.
+
+    Raises
+    ------
+    MeshError
+        Non-triangle, degenerate or non-manifold mesh.
+    InputError
+        Bad weights, constraints on missing faces, constraint directions normal to their face.
+
+    Notes
+    -----
+    Energy ``Σ_edges w_e |c_g − r_e^k c_f|² + Σ_f ω_f |c_f − t_f|²`` for ``X`` (``k = 4``) and ``Y``
+    (``k = 2``), with ``ω_f = alignment · 1000 · (A_f / A) · a_f``; ``a_f`` ramps from 0 to 1 as the anisotropy
+    ``|k1 − k2| / (|k1| + |k2| + ε)`` goes from 0.1 to 1 (near-umbilic faces have noise for principal directions), and the principal target ``t = −d1⁴`` (the cross along ``d1, d2``; ``Y = 0``), plus the boundary and user
+    terms (Diamanti et al. 2014). Both are single sparse Hermitian solves.
+
+    Example
+    -------
+    >>> fld = smooth_field(V, T, alignment=0.1)
+    >>> fld.U.shape == (len(T), 3)
+    True
+    """
+    V, T = _mesh_arrays(V, T)
+    alignment = check_number(alignment, "alignment", 0)
+    boundary_weight = check_number(boundary_weight, "boundary_weight", 0)
+    normalize_iterations = _check_int(normalize_iterations, "normalize_iterations", 0, 200)
+    if constraint_weight is not None:
+        constraint_weight = check_number(constraint_weight, "constraint_weight", 0, above=True)
+    m = len(T)
+    fr = face_frames(V, T)
+    dg = dual_graph(V, T, fr)
+    cv = _curvature_arg(curvature, V, T, _check_int(curvature_radius, "curvature_radius", 1, 6), m)
+    cons = _constraints_arg(constraints, m, fr)
+    aniso = _anisotropy(cv)
+    p = _principal_complex(cv, fr)
+
+    share = fr.area / float(fr.area.sum())
+    wX = alignment * _AREA_SCALE * share * _alignment_weights(aniso)
+    tX = -(p ** 4)
+    wY = wX.copy()
+    tY = np.zeros(m, dtype=complex)
+    accX = wX * tX
+    if align_boundary and len(dg.bface):
+        t = to_complex(V[dg.bb] - V[dg.ba], fr, dg.bface)
+        t = t / np.abs(t)
+        wb = np.full(len(t), boundary_weight)
+        wX = wX + np.bincount(dg.bface, weights=wb, minlength=m)
+        wY = wY + np.bincount(dg.bface, weights=wb, minlength=m)
+        bt = -(t ** 4) * wb
+        accX = accX + np.bincount(dg.bface, weights=bt.real, minlength=m) + 1j * np.bincount(
+            dg.bface, weights=bt.imag, minlength=m)
+    pinX = pinY = None
+    accY = wY * tY
+    if cons is not None:
+        cf, cX, cY = cons
+        if constraint_weight is None:
+            pinX, pinY = (cf, cX), (cf, cY)
+        else:
+            wX[cf] += constraint_weight
+            wY[cf] += constraint_weight
+            accX[cf] += constraint_weight * cX
+            accY[cf] += constraint_weight * cY
+    tX = np.divide(accX, wX, out=np.zeros(m, dtype=complex), where=wX > 0)
+    LX = _connection_laplacian(dg, m, 4)
+    X = _solve_coefficient(LX, wX, tX, pinX)
+    if normalize_iterations:
+        X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
+    if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
+        tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
+        Y = _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
+    else:
+        Y = np.zeros(m, dtype=complex)
+    u, v = _roots(X, Y)
+    fld = _finish(V, T, u, v, fr, dg, cv, aniso)
+    log.debug("smooth_field: %d faces, %d singularities", m, len(fld.singularities))
+    return fld
+
+
+# ----------------------------------------------------------------------------------------------
+# conjugate field
+
+_GRID = 24  # samples of the first direction's angle in a cold local step (7.5°), then refinements
+_CHUNK = 32768  # faces per block in the local step (bounds the temporaries)
+
+
+def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
+    """Local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(m, s)``."""
+    x, y = -k2[:, None] * sa, k1[:, None] * ca
+    r2 = x * x + y * y
+    r2 = np.where(r2 > 0, r2, 1.0)
+    c2b, s2b = (x * x - y * y) / r2, 2.0 * x * y / r2  # doubled angle of b
+    c2a, s2a = ca * ca - sa * sa, 2.0 * ca * sa
+    ar, ai = A2.real[:, None], A2.imag[:, None]
+    br, bi = B2.real[:, None], B2.imag[:, None]
+    # 2 sin² of line angles = 1 − cos of doubled angles; both assignments of (a, b) to (α, β)
+    d1 = 2.0 - (c2a * ar + s2a * ai) - (c2b * br + s2b * bi)
+    d2 = 2.0 - (c2a * br + s2a * bi) - (c2b * ar + s2b * ai)
+    swap = d2 < d1
+    D = 0.5 * np.minimum(d1, d2)
+    sep = 0.5 * (1.0 - (c2a * c2b + s2a * s2b))
+    D = D + np.where(sep < smin, 4.0 + (smin - sep), 0.0)
+    if T2 is not None:
+        tr, ti = T2.real[:, None], T2.imag[:, None]
+        tb = 0.5 * (1.0 - np.maximum(c2a * tr + s2a * ti, c2b * tr + s2b * ti))
+        D = D + tau_weight[:, None] * tb  # T2 = 0 where a face has no boundary edge: a constant, no effect
+    return D, swap
+
+
+def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, tau_weight=10.0):
+    """Per face, the conjugate pair closest to the line pair ``(u, v)`` (unit complex in the face frame).
+
+    The conjugate direction of ``a`` (angle from the principal direction ``p``) is ``b(a) = arg(−k2 sin a +
+    i k1 cos a)``; the pair ``(a, b(a))`` minimizing ``sin²(a − α) + sin²(b − β)`` (either assignment) over pairs
+    at least ``min_angle`` apart is found by sampling ``a`` and refining. ``start`` (previous optimum angles)
+    replaces the coarse sampling by three candidates (the previous optimum and the two current directions).
+    ``tau`` (unit complex, NaN where absent) adds ``tau_weight · sin²`` of the nearer direction's angle to a
+    boundary tangent. Returns the pair and the optimal angles.
+    """
+    m = len(u)
+    pc = np.conj(p)
+    A2 = (u * pc) ** 2  # doubled angles relative to the principal direction
+    B2 = (v * pc) ** 2
+    T2 = None
+    if tau is not None:
+        T2 = np.where(np.isfinite(tau), (np.where(np.isfinite(tau), tau, 0.0) * pc) ** 2, 0.0)
+    smin = np.sin(min_angle) ** 2
+    tau_weight = np.broadcast_to(np.asarray(tau_weight, dtype=np.float64), (m,))
+    best = np.empty(m)
+    for lo in range(0, m, _CHUNK):
+        sl = slice(lo, min(m, lo + _CHUNK))
+        args = (k1[sl], k2[sl], A2[sl], B2[sl], None if T2 is None else T2[sl], smin, tau_weight[sl])
+        if start is None:
+            a = np.broadcast_to(np.arange(_GRID) * (np.pi / _GRID), (sl.stop - sl.start, _GRID))
+            step, levels = np.pi / _GRID, 3
+        else:
+            a = np.stack([start[sl], np.angle(u[sl] * pc[sl]), np.angle(v[sl] * pc[sl])], axis=1)
+            step, levels = np.pi / 90.0, 2
+        D, _ = _conjugate_cost(np.cos(a), np.sin(a), *args)
+        b = a[np.arange(len(a)), np.argmin(D, axis=1)]
+        offsets = np.linspace(-1.0, 1.0, 7)
+        for _ in range(levels):
+            a = b[:, None] + step * offsets[None, :]
+            D, _ = _conjugate_cost(np.cos(a), np.sin(a), *args)
+            b = a[np.arange(len(a)), np.argmin(D, axis=1)]
+            step /= 3.0
+        best[sl] = b
+    _, swap = _conjugate_cost(np.cos(best)[:, None], np.sin(best)[:, None], k1, k2, A2, B2, T2, smin, tau_weight)
+    swap = swap[:, 0]
+    ua = p * np.exp(1j * best)
+    x, y = -k2 * np.sin(best), k1 * np.cos(best)
+    vb = p * (x + 1j * y)
+    nb = np.abs(vb)
+    vb = np.where(nb > 0, vb / np.where(nb > 0, nb, 1.0), 1j * ua)
+    pu = np.where(swap, vb, ua)
+    pv = np.where(swap, ua, vb)
+    # keep the orientation of the input vectors
+    pu = np.where((pu * np.conj(u)).real < 0, -pu, pu)
+    pv = np.where((pv * np.conj(v)).real < 0, -pv, pv)
+    return pu, pv, np.mod(best, np.pi)
+
+
+def _line_angle(a, b) -> np.ndarray:
+    """Angle (radians, in ``[0, π/2]``) between the lines of unit complex directions ``a`` and ``b``."""
+    return np.abs(np.angle((a * np.conj(b)) ** 2)) / 2.0
+
+
+def _pair_deviation(pu, pv, u, v) -> np.ndarray:
+    """Largest angle (radians) between the lines of a pair ``(pu, pv)`` and the nearer lines of ``(u, v)``."""
+    line = _line_angle
+    return np.maximum(np.minimum(line(pu, u), line(pu, v)), np.minimum(line(pv, v), line(pv, u)))
+
+
+def _boundary_tangents(V, dg: DualGraph, fr: FaceFrames, m: int) -> np.ndarray:
+    """Unit complex tangent of a boundary edge per face (NaN where none; the last edge wins at corners)."""
+    tau = np.full(m, np.nan + 0j)
+    if len(dg.bface):
+        t = to_complex(V[dg.bb] - V[dg.ba], fr, dg.bface)
+        tau[dg.bface] = t / np.abs(t)
+    return tau
+
+
+def _conjugacy_weights(cv: FieldCurvature) -> np.ndarray:
+    """Importance of conjugacy per face: curvature magnitude squared relative to its mean, capped at 1."""
+    s = np.abs(cv.k1) + np.abs(cv.k2)
+    ref = float(np.mean(s * s)) if len(s) else 0.0
+    if ref <= 0:
+        return np.zeros_like(s)
+    return np.minimum(1.0, s * s / ref)
+
+
+def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
+                    iterations: int = 40, conjugacy_weight: float = 3.0, closeness: float = 0.01,
+                    min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,
+                    curvature: FieldCurvature | None = None, curvature_radius: int = 2,
+                    release_angle: float | None = np.radians(20.0),
+                    release_separation: float = np.radians(45.0)) -> Field:
+    """Conjugate direction field near a given field: local-global alternation of Liu et al. 2011.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices.
+    T : (m, 3) int64
+        Triangles: oriented, edge-manifold, open boundaries and holes allowed.
+    U0, W0 : (m, 3) float64
+        Starting field per face (typically :func:`smooth_field`'s ``U, W``).
+    smoothness : float
+        Weight of the PolyVector smoothness energy (> 0). Larger = smoother, fewer singularities, less conjugate.
+    iterations : int
+        Number of local-global iterations (1 to 200). The alternation converges slowly; on ``inspired_mesh.obj``
+        the extracted quads' mean planarity went 2.6e-3 → 2.5e-3 from 20 to 40 iterations.
+    conjugacy_weight : float
+        Weight of the pull towards the per-face closest conjugate pairs (area-share weighted, × curvature
+        importance, as ``alignment`` in :func:`smooth_field`).
+    closeness : float
+        Weight of the pull towards the starting field (area-share weighted).
+    min_angle : float
+        Smallest angle (radians) allowed between the two directions of a face (conjugate pairs can collapse
+        onto an asymptotic direction on saddles).
+    align_boundary : bool
+        On faces with a boundary edge prefer the conjugate pair one of whose directions follows the boundary.
+    constraints : (faces, directions), optional
+        As in :func:`smooth_field`: with one direction per face ``(c, 3)`` the face keeps the conjugate pair
+        containing it (when the angle bound allows); with two ``(c, 2, 3)`` the face keeps the given pair.
+    curvature : FieldCurvature, optional
+        Per-face shape operator (:func:`field_curvature`), computed when omitted.
+    curvature_radius : int
+        Ring size of the curvature fit when ``curvature`` is omitted.
+    release_angle : float or None
+        After the iterations, faces whose closest conjugate pair lies more than this angle (radians) from the
+        smoothed pair are released from conjugacy (keep the smoothed pair) and ``iterations // 4`` more
+        iterations run without them. Near parabolic lines every conjugate pair collapses towards the asymptotic
+        direction and the pair there is either squeezed to ``min_angle`` or jumps to the other branch; forcing it
+        folds the field and the parametrization (inverted triangles, stretched panels). ``None``: never release.
+        The released faces are returned in ``Field.released``.
+    release_separation : float
+        With ``release_angle`` set, faces whose closest conjugate pair is narrower than this angle (radians) are
+        released too. Where a pair narrows (towards a parabolic line, conjugate partners close in on the
+        asymptotic direction) the pair turns quickly from face to face: the field is far from integrable there
+        and the parametrization compresses or folds (on the ``wave`` sample: pairs down to the 25° bound, eight
+        singularities instead of two, stretched rows of panels along the boundary; 0 disables).
+
+    Returns
+    -------
+    Field
+        Combed conjugate ``U, W`` (each face's pair is the closest conjugate pair to the smoothed PolyVector),
+        singularities, alignment and conjugacy errors.
+
+    Raises
+    ------
+    MeshError
+        Non-triangle, degenerate or non-manifold mesh.
+    InputError
+        ``U0, W0`` of the wrong shape or with zero vectors; weights or counts out of range.
+
+    Notes
+    -----
+    Liu et al. 2011 (and libigl's ``conjugate_frame_fields``): the local step replaces every face's pair by the
+    closest pair conjugate w.r.t. the face's shape operator (``II(u, v) = 0``, here a 1-D search over the first
+    direction, the second being ``S u``'s orthogonal); the global step minimizes the PolyVector smoothness energy
+    plus the pull towards those pairs and towards the start field — one factorization for all iterations. The
+    faces whose curvature is small get a small conjugacy weight (conjugacy does not matter there). The conjugacy
+    error reported is ``|II(U, W)| / (|k1| + |k2|)``.
+
+    Example
+    -------
+    >>> s = smooth_field(V, T)
+    >>> c = conjugate_field(V, T, s.U, s.W)
+    >>> float(c.conjugacy_error.mean()) < float(s.conjugacy_error.mean())
+    True
+    """
+    V, T = _mesh_arrays(V, T)
+    m = len(T)
+    U0, W0 = check_field(U0, W0, m, names=("U0", "W0"))
+    smoothness = check_number(smoothness, "smoothness", 0, above=True)
+    iterations = _check_int(iterations, "iterations", 1, 200)
+    conjugacy_weight = check_number(conjugacy_weight, "conjugacy_weight", 0, above=True)
+    closeness = check_number(closeness, "closeness", 0)
+    min_angle = check_number(min_angle, "min_angle", 0)
+    if release_angle is not None:
+        release_angle = check_number(release_angle, "release_angle", 0)
+    release_separation = check_number(release_separation, "release_separation", 0)
+    if min_angle >= 0.5 * np.pi:
+        raise InputError("min_angle", f"must be below π/2, got {min_angle!r}")
+    fr = face_frames(V, T)
+    dg = dual_graph(V, T, fr)
+    cv = _curvature_arg(curvature, V, T, _check_int(curvature_radius, "curvature_radius", 1, 6), m)
+    p = _principal_complex(cv, fr)
+    aniso = _anisotropy(cv)
+    tau = _boundary_tangents(V, dg, fr, m) if align_boundary else None
+    tau_w = np.full(m, 10.0)
+    fixed = None
+    if constraints is not None:
+        cf, cdir = _constraint_directions(constraints, m, fr)
+        if cdir.shape[1] == 1:
+            tau = np.full(m, np.nan + 0j) if tau is None else tau
+            tau[cf] = cdir[:, 0]
+            tau_w[cf] = 1000.0
+        else:
+            fixed = (cf, cdir[:, 0], cdir[:, 1])
+    u0 = to_complex(U0, fr)
+    v0 = to_complex(W0, fr)
+    u0, v0 = u0 / np.abs(u0), v0 / np.abs(v0)
+    if np.any(np.abs(u0) == 0) or np.any(np.abs(v0) == 0) or not np.isfinite(u0).all():
+        raise InputError("U0", "vectors must not be normal to their faces")
+    X0, Y0 = _poly(u0, v0)
+    share = fr.area / float(fr.area.sum())
+    wc = conjugacy_weight * _AREA_SCALE * share * _conjugacy_weights(cv)
+    w0 = closeness * _AREA_SCALE * share
+    active = _conjugacy_weights(cv) > 0
+    LX = smoothness * _connection_laplacian(dg, m, 4)
+    LY = smoothness * _connection_laplacian(dg, m, 2)
+
+    def local_global(u, v, a, wc, active, count):
+        """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve."""
+        luX = _factor(LX + sp.diags((wc + w0).astype(complex)))
+        luY = _factor(LY + sp.diags((wc + w0).astype(complex)))
+        for _ in range(count):
+            pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+            pu = np.where(active, pu, u)
+            pv = np.where(active, pv, v)
+            if fixed is not None:
+                pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
+            Xp, Yp = _poly(pu, pv)
+            X = luX.solve(wc * Xp + w0 * X0)
+            Y = luY.solve(wc * Yp + w0 * Y0)
+            u, v = _roots(X, Y)
+        pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
+        return u, v, a, pu, pv
+
+    def far(pu, pv, u, v, active):
+        """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle or narrower than
+        the release separation."""
+        narrow = _line_angle(pu, pv) < release_separation
+        out = active & ((_pair_deviation(pu, pv, u, v) > release_angle) | narrow)
+        if fixed is not None:
+            out[fixed[0]] = False
+        return out
+
+    u, v, a, pu, pv = local_global(u0, v0, None, wc, active, iterations)
+    released = np.zeros(m, dtype=bool)
+    if release_angle is not None:
+        # faces whose closest conjugate pair is far from the smoothed pair (parabolic lines, where conjugate pairs
+        # collapse onto the asymptotic direction, or a jump to the other branch) would fold the field: they are
+        # released from conjugacy and the global step re-run so the field passes them smoothly
+        released = far(pu, pv, u, v, active)
+        if released.any():
+            wc = np.where(released, 0.0, wc)
+            active = active & ~released
+            u, v, a, pu, pv = local_global(u, v, a, wc, active, max(1, iterations // 4))
+            late = far(pu, pv, u, v, active)
+            released |= late
+            active = active & ~late
+    u = np.where(active, pu, u)
+    v = np.where(active, pv, v)
+    if fixed is not None:
+        u[fixed[0]], v[fixed[0]] = fixed[1], fixed[2]
+    fld = _finish(V, T, u, v, fr, dg, cv, aniso)._replace(released=released)
+    log.debug("conjugate_field: %d faces, %d singularities, mean conjugacy error %.2e, %d released", m,
+              len(fld.singularities), float(fld.conjugacy_error.mean()), int(released.sum()))
+    return fld
+
+
+# ----------------------------------------------------------------------------------------------
+# published components
+
+
+def _display_lines(V, T, U, W):
+    C = (V[T[:, 0]] + V[T[:, 1]] + V[T[:, 2]]) / 3.0
+    E = np.concatenate([V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 1]], V[T[:, 0]] - V[T[:, 2]]])
+    h = 0.25 * float(np.mean(np.linalg.norm(E, axis=1)))
+    return np.stack([C - h * U, C + h * U], axis=1), np.stack([C - h * W, C + h * W], axis=1)
+
+
+def _published_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        V, F = mesh
+    except (TypeError, ValueError):
+        raise InputError("mesh", "must be a (vertices, faces) pair") from None
+    V, F = validate_mesh(V, F, name="mesh")
+    T, _ = triangulate(F)
+    return V, T
+
+
+def _singularity_warnings(fld: Field, m: int) -> list[str]:
+    out = []
+    k = len(fld.singularities)
+    if k > max(20, m // 500):
+        out.append(f"the field has {k} singularities: lower 'alignment' for a smoother field")
+    return out
+
+
+class SmoothFieldResult(NamedTuple):
+    u: Vectors
+    w: Vectors
+    singularities: Points
+    singularity_index: Numbers
+    lines_u: Lines
+    lines_w: Lines
+    alignment_error: Numbers
+    singularity_count: int
+    mean_alignment_error: float
+    warnings: list[str]
+
+
+def smooth_direction_field(mesh: Mesh, alignment: float = 0.1, align_boundary: bool = True) -> SmoothFieldResult:
+    """Smooth cross field on a mesh, softly aligned to the principal curvature directions (4-PolyVector).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The design surface ``(V, F)``; polygons are fan-triangulated, open boundaries and holes are allowed. The
+        field lives on the triangles.
+    alignment : float
+        Pull towards the principal curvature directions where the curvature is anisotropic (≥ 0). Lower =
+        smoother with fewer singularities (0.01), higher = closer to the principal directions (1–10).
+    align_boundary : bool
+        Align one field direction with the boundary on boundary triangles.
+
+    Returns
+    -------
+    u : Vectors
+        First field direction per triangle (unit, combed).
+    w : Vectors
+        Second field direction per triangle (unit, counter-clockwise from ``u``).
+    singularities : Points
+        Singular vertices of the field.
+    singularity_index : Numbers
+        Index of each singularity (multiples of 1/4: +1/4 behaves like a valence-3 vertex, −1/4 like valence 5).
+    lines_u : Lines
+        Short segments along ``u`` at the triangle centroids, for display.
+    lines_w : Lines
+        Short segments along ``w`` at the triangle centroids.
+    alignment_error : Numbers
+        Per triangle, angle (radians) between the field and the principal directions.
+    singularity_count : int
+        Number of singular vertices.
+    mean_alignment_error : float
+        Mean of ``alignment_error`` over the triangles whose curvature is clearly anisotropic (anisotropy > 0.5),
+        radians (0 when there are none).
+
+    Raises
+    ------
+    MeshError
+        The mesh is malformed, degenerate or non-manifold.
+    InputError
+        ``alignment`` is negative or not a number.
+
+    Notes
+    -----
+    Diamanti, Vaxman, Panozzo & Sorkine-Hornung 2014 (N-PolyVector fields); see :func:`smooth_field`.
+
+    Example
+    -------
+    >>> res = smooth_direction_field((V, F), alignment=0.1)
+    >>> res.u.shape[1]
+    3
+    """
+    V, T = _published_mesh(mesh)
+    fld = smooth_field(V, T, alignment=alignment, align_boundary=bool(align_boundary))
+    lu, lw = _display_lines(V, T, fld.U, fld.W)
+    sel = fld.anisotropy > 0.5
+    mean_err = float(fld.alignment_error[sel].mean()) if sel.any() else 0.0
+    return SmoothFieldResult(fld.U, fld.W, V[fld.singularities], fld.singularity_index, lu, lw, fld.alignment_error,
+                             len(fld.singularities), mean_err, _singularity_warnings(fld, len(T)))
+
+
+class ConjugateFieldResult(NamedTuple):
+    u: Vectors
+    w: Vectors
+    singularities: Points
+    singularity_index: Numbers
+    lines_u: Lines
+    lines_w: Lines
+    conjugacy_error: Numbers
+    max_conjugacy_error: float
+    mean_conjugacy_error: float
+    singularity_count: int
+    smooth_mean_conjugacy_error: float
+    warnings: list[str]
+
+
+def conjugate_direction_field(mesh: Mesh, alignment: float = 0.1, smoothness: float = 1.0,
+                              iterations: int = 20) -> ConjugateFieldResult:
+    """Smooth conjugate direction field on a mesh: quads along it are planar to first order (Liu et al. 2011).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The design surface ``(V, F)``; polygons are fan-triangulated, open boundaries and holes are allowed. The
+        field lives on the triangles.
+    alignment : float
+        Alignment of the starting smooth field to the principal directions (see the smooth field component).
+    smoothness : float
+        Weight of smoothness against conjugacy (> 0): higher = smoother field with fewer singularities.
+    iterations : int
+        Local-global iterations (1 to 200).
+
+    Returns
+    -------
+    u : Vectors
+        First field direction per triangle (unit, combed).
+    w : Vectors
+        Second field direction per triangle, conjugate to ``u`` (not orthogonal in general).
+    singularities : Points
+        Singular vertices of the field.
+    singularity_index : Numbers
+        Index of each singularity (multiples of 1/4).
+    lines_u : Lines
+        Short segments along ``u`` at the triangle centroids, for display.
+    lines_w : Lines
+        Short segments along ``w`` at the triangle centroids.
+    conjugacy_error : Numbers
+        Per triangle ``|II(u, w)| / (|k1| + |k2|)`` (scale-free, 0 = conjugate).
+    max_conjugacy_error : float
+        Largest ``conjugacy_error``.
+    mean_conjugacy_error : float
+        Mean ``conjugacy_error``.
+    singularity_count : int
+        Number of singular vertices.
+    smooth_mean_conjugacy_error : float
+        Mean conjugacy error of the starting smooth field, for comparison.
+
+    Raises
+    ------
+    MeshError
+        The mesh is malformed, degenerate or non-manifold.
+    InputError
+        A weight or the iteration count is out of range.
+
+    Notes
+    -----
+    Y. Liu et al., "General planar quadrilateral mesh design using conjugate direction field", SIGGRAPH Asia 2011:
+    local-global alternation between the closest conjugate pair per triangle and a PolyVector smoothing solve
+    (Diamanti et al. 2014); see :func:`conjugate_field`.
+
+    Example
+    -------
+    >>> res = conjugate_direction_field((V, F))
+    >>> res.mean_conjugacy_error < res.smooth_mean_conjugacy_error
+    True
+    """
+    V, T = _published_mesh(mesh)
+    smoothness = check_number(smoothness, "smoothness", 0, above=True)
+    iterations = _check_int(iterations, "iterations", 1, 200)
+    cv = field_curvature(V, T)
+    s = smooth_field(V, T, alignment=alignment, curvature=cv)
+    fld = conjugate_field(V, T, s.U, s.W, smoothness=smoothness, iterations=iterations, curvature=cv)
+    lu, lw = _display_lines(V, T, fld.U, fld.W)
+    err = fld.conjugacy_error
+    return ConjugateFieldResult(fld.U, fld.W, V[fld.singularities], fld.singularity_index, lu, lw, err,
+                                float(err.max()), float(err.mean()), len(fld.singularities),
+                                float(s.conjugacy_error.mean()), _singularity_warnings(fld, len(T))
+                                + _release_warnings(fld, len(T)))
+
+
+def _release_warnings(fld: Field, m: int) -> list[str]:
+    k = 0 if fld.released is None else int(np.count_nonzero(fld.released))
+    if not k:
+        return []
+    return [f"{k} of {m} triangles keep the smooth pair instead of a conjugate one (their closest conjugate pair "
+            f"would fold the field or be too narrow: parabolic lines or a branch jump); conjugacy_error shows them"]

@@ -1,0 +1,1121 @@
+"""Seamless global parametrization from a direction field: cut graph, transition functions, integer rounding.
+
+Given per-triangle field directions ``U, W`` (unit tangent vectors standing for the 4-fold set ``±U, ±W``, not
+necessarily orthogonal) and a target edge length ``h``, this module computes per-corner parameters ``UV (m, 3, 2)``
+whose gradients follow the *dual* frame of the field, ``∇u ≈ U*/h`` and ``∇v ≈ W*/h`` (``U*·U = 1, U*·W = 0``…),
+so that the iso-``v`` lines run along ``U``, the iso-``u`` lines along ``W`` and the integer iso-lines are ``h``
+apart. The result is *seamless*: across every cut the two sides differ by a rotation by a multiple of 90° and an
+integer translation, singular vertices sit at integer points and (with ``boundary="aligned"``) every boundary
+stretch follows an integer iso-line, so the integer iso-lines close up into a quad mesh (see
+:mod:`components.fields.extract`).
+
+Steps (mixed-integer quadrangulation after Bommes, Zimmer & Kobbelt 2009, simplified for open surfaces):
+
+1. *Matching*: across each interior edge, the rotation ``k ∈ {0, 1, 2, 3}`` (``U → W → −U → −W``) that best maps
+   one face's frame onto its neighbour's (after unfolding the two triangles). Interior vertices around which the
+   matchings do not add up to 0 mod 4 are singular.
+2. *Cut graph*: from every singular vertex a shortest path to the boundary (paths vertex-disjoint), plus one path
+   from every further boundary loop to the first, so the cut surface is a topological disk whose field has no
+   holonomy. The field is *combed* (each face's frame rotated) so the matching is the identity off the cuts.
+3. *Vertex copies*: corners are merged across uncut edges; a vertex on a cut has one copy per side. The copy on
+   the right of a cut is eliminated: ``x_R = A·x_L + t`` with ``A`` the rotation of the cut and
+   ``t = (I − A)·x_s`` (``x_s`` the singular vertex at the start of the cut) or a free translation for cuts
+   between boundary loops.
+4. *Least squares*: ``Σ_f area_f (|∇u − U*/h|² + |∇v − W*/h|²)`` plus, for an aligned boundary, a stiff penalty
+   keeping each boundary stretch on one iso-line ``u = c`` or ``v = c`` (the family whose direction is closer
+   to the boundary tangent, short runs merged). One sparse factorization.
+5. *Greedy rounding*: singular positions, boundary constants and loop translations are rounded to integers,
+   closest to an integer first, a batch at a time, re-solving the rest after each batch. The re-solves reuse the
+   one factorization: with ``Z = M⁻¹E`` for the integer columns ``E``, fixing a set ``S`` is a small dense
+   Schur-complement solve on ``Z[S, S]``.
+
+References
+----------
+D. Bommes, H. Zimmer, L. Kobbelt, "Mixed-integer quadrangulation", ACM Trans. Graph. (SIGGRAPH) 28(3), 2009.
+F. Kälberer, M. Nieser, K. Polthier, "QuadCover — surface parameterization using branched coverings",
+Computer Graphics Forum (Eurographics) 26(3), 2007.
+Y. Liu, W. Xu, J. Wang, L. Zhu, B. Guo, F. Chen, G. Wang, "General planar quadrilateral mesh design using conjugate
+direction field", ACM Trans. Graph. (SIGGRAPH Asia) 30(6), 2011 (non-orthogonal frames, the dual basis).
+"""
+from __future__ import annotations
+
+import logging
+import time
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
+from scipy.sparse.linalg import splu
+
+from components.core.checks import check_number, validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import boundary_loops, edge_topology, triangulate
+from components.core.types import Curves, Mesh, Points
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "Parametrization",
+    "ParametrizeResult",
+    "direction_field",
+    "field_angle_error",
+    "parametrize",
+    "seamless_parametrization",
+    "iso_lines",
+]
+
+FIELDS = ("conjugate", "smooth", "principal")
+BOUNDARY_MODES = ("aligned", "free")
+
+# rotation by k quarter turns of the frame pair: (U, W) -> (W, -U) for k = 1; the parameters follow the same 2×2
+# integer matrix: (u, v)_g = A_k (u, v)_f + t
+_A = np.array(
+    [[[1, 0], [0, 1]], [[0, 1], [-1, 0]], [[-1, 0], [0, -1]], [[0, -1], [1, 0]]], dtype=np.int64
+)
+
+
+def _unit(X: np.ndarray) -> np.ndarray:
+    L = np.linalg.norm(X, axis=-1, keepdims=True)
+    return np.divide(X, L, out=np.zeros_like(X), where=L > 0)
+
+
+def _rot_frame(U: np.ndarray, W: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate frame pairs by ``k`` quarter turns: ``k = 1`` maps ``(U, W)`` to ``(W, −U)``."""
+    k = np.mod(k, 4)[:, None]
+    U2 = np.where(k == 0, U, np.where(k == 1, W, np.where(k == 2, -U, -W)))
+    W2 = np.where(k == 0, W, np.where(k == 1, -U, np.where(k == 2, -W, U)))
+    return U2, W2
+
+
+# ----------------------------------------------------------------------------------------------
+# input checks
+
+
+def _check_length(value, name: str = "target_length") -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {value!r}") from None
+    if not np.isfinite(x) or x <= 0:
+        raise InputError(name, f"must be a positive length, got {value!r}")
+    return x
+
+
+def _check_choice(value, choices, name: str) -> str:
+    if value not in choices:
+        raise InputError(name, f"must be one of {choices}, got {value!r}")
+    return value
+
+
+def _triangle_mesh(mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Validate a mesh input and fan-triangulate it: ``V, F, T, J``."""
+    if not isinstance(mesh, (tuple, list)) or len(mesh) != 2:
+        raise MeshError(name, "must be a (V, F) pair of vertex and face arrays")
+    V, F = validate_mesh(mesh[0], mesh[1], name=name)
+    T, J = triangulate(F)
+    return V, F, T, J
+
+
+def _check_target_against(V: np.ndarray, T: np.ndarray, target: float, name: str = "target_length") -> None:
+    diag = float(np.linalg.norm(V[T].reshape(-1, 3).max(axis=0) - V[T].reshape(-1, 3).min(axis=0)))
+    if target > diag:
+        raise InputError(name, f"{target:g} is larger than the surface ({diag:g} across): no quad fits")
+    area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
+    if area / target**2 > 2e6:
+        raise InputError(name, f"{target:g} would give about {area / target**2:.3g} quads (limit 2e6)")
+
+
+# ----------------------------------------------------------------------------------------------
+# direction fields
+
+
+def _fallback_field(V: np.ndarray, T: np.ndarray, alignment: float, constraints=None):
+    """Principal directions smoothed as a 4-RoSy field (orthogonal; conjugate where it follows them).
+
+    Used when :mod:`components.fields.field` is not available. Per face the cross is ``z = e^{4iθ}`` in the face frame;
+    energy ``Σ_edges |z_g − r_e z_f|² + alignment · Σ_f a_f |z_f − z0_f|²`` with the connection ``r_e`` across
+    each edge and ``a_f`` the curvature anisotropy.
+    """
+    from components.core.curvature import face_principal_curvature, vertex_principal_curvature
+
+    m = len(T)
+    A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
+    n = _unit(np.cross(B - A, C - A))
+    e1 = _unit(B - A)
+    e2 = np.cross(n, e1)
+    PD1, PD2, k1, k2 = vertex_principal_curvature(V, T, radius=2)
+    FD1, FD2, FK1, FK2 = face_principal_curvature(V, T, PD1, PD2, k1, k2)
+    aniso = np.abs(FK1 - FK2) / (np.abs(FK1) + np.abs(FK2) + 1e-12)
+    theta0 = np.arctan2(np.einsum("ij,ij->i", FD1, e2), np.einsum("ij,ij->i", FD1, e1))
+    z0 = np.exp(4j * theta0)
+    topo = edge_topology(T)
+    inner = topo.count == 2
+    E, EF = topo.E[inner], topo.EF[inner]
+    d = _unit(V[E[:, 1]] - V[E[:, 0]])
+    f, g = EF[:, 0], EF[:, 1]
+    af = np.arctan2(np.einsum("ij,ij->i", d, e2[f]), np.einsum("ij,ij->i", d, e1[f]))
+    ag = np.arctan2(np.einsum("ij,ij->i", d, e2[g]), np.einsum("ij,ij->i", d, e1[g]))
+    r = np.exp(4j * (ag - af))
+    ne = len(E)
+    rows = np.repeat(np.arange(ne), 2)
+    cols = np.stack([f, g], axis=1).ravel()
+    vals = np.stack([-r, np.ones(ne)], axis=1).ravel()
+    D = sp.csr_matrix((vals, (rows, cols)), shape=(ne, m))
+    area = 0.5 * np.linalg.norm(np.cross(B - A, C - A), axis=1)
+    share = area / area.sum() * m
+    w = alignment * aniso * share + 1e-6
+    # a faint global pull to the x axis keeps flat regions defined
+    x = np.array([1.0, 0.0, 0.0])
+    xt = x - n * (n @ x)[:, None]
+    bad = np.linalg.norm(xt, axis=1) < 1e-3
+    xt[bad] = e1[bad]
+    zx = np.exp(4j * np.arctan2(np.einsum("ij,ij->i", xt, e2), np.einsum("ij,ij->i", xt, e1)))
+    target = (alignment * aniso * share * z0 + 1e-6 * zx) / w
+    if constraints is not None:
+        cf, cd = constraints
+        tc = np.arctan2(np.einsum("ij,ij->i", cd, e2[cf]), np.einsum("ij,ij->i", cd, e1[cf]))
+        target[cf] = (w[cf] * target[cf] + 100.0 * np.exp(4j * tc)) / (w[cf] + 100.0)
+        w[cf] += 100.0
+    M = (D.conj().T @ D + sp.diags(w)).tocsc()
+    z = splu(M, permc_spec="MMD_AT_PLUS_A").solve(w * target)
+    th = np.angle(z) / 4.0
+    U = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
+    W = np.cross(n, U)
+    return U, W
+
+
+def _check_constraints(constraint_faces, constraint_directions, m: int):
+    """Validate optional per-face direction constraints: ``(faces (c,), directions (c, 3))`` or ``None``."""
+    if constraint_faces is None and constraint_directions is None:
+        return None
+    if constraint_faces is None or constraint_directions is None:
+        raise InputError("constraint_faces", "faces and directions must be given together")
+    try:
+        cf = np.asarray(constraint_faces, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError("constraint_faces", "must be face indices") from None
+    if len(cf) == 0:
+        return None
+    if not np.all(np.isfinite(cf)) or np.any(cf != np.round(cf)):
+        raise InputError("constraint_faces", "must be integer face indices")
+    cf = cf.astype(np.int64)
+    if np.any((cf < 0) | (cf >= m)):
+        i = int(cf[(cf < 0) | (cf >= m)][0])
+        raise InputError("constraint_faces", f"face {i} does not exist (the mesh has {m} triangles)")
+    try:
+        cd = np.asarray(constraint_directions, dtype=float).reshape(-1, 3)
+    except (TypeError, ValueError):
+        raise InputError("constraint_directions", "must be (c, 3) vectors") from None
+    if len(cd) != len(cf):
+        raise InputError("constraint_directions", f"has {len(cd)} vectors for {len(cf)} constraint faces")
+    if not np.all(np.isfinite(cd)) or np.any(np.linalg.norm(cd, axis=1) == 0):
+        raise InputError("constraint_directions", "vectors must be finite and non-zero")
+    return cf, cd
+
+
+def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alignment: float = 0.1,
+                    constraints=None, release_separation: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-face field directions ``U, W`` for the parametrization, from :mod:`components.fields.field` when present.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices.
+    T : (m, 3) int64
+        Triangles.
+    field : {"conjugate", "smooth", "principal"}
+        ``"conjugate"``: the smooth field made conjugate (``fields.conjugate_field``); ``"smooth"``: the smooth
+        field softly aligned to the principal directions (``fields.smooth_field``); ``"principal"``: principal
+        directions smoothed by this module's own 4-RoSy solve (also the fallback when the fields module is
+        missing).
+    alignment : float
+        Weight of the pull towards the principal directions (smaller = smoother, fewer singularities).
+    constraints : tuple (faces (c,), directions (c, 3)), optional
+        Prescribed directions on some faces.
+    release_separation : float, optional
+        Passed to ``fields.conjugate_field`` (its default when omitted).
+
+    Returns
+    -------
+    U, W : (m, 3) float64
+        Unit tangent directions, ``W`` counter-clockwise from ``U``.
+    """
+    fields = None
+    if field != "principal":
+        try:
+            from components.fields import field as fields  # noqa: PLW0127
+        except ImportError:  # pragma: no cover - the fields module is optional
+            fields = None
+    if fields is not None and hasattr(fields, "smooth_field"):
+        fld = fields.smooth_field(V, T, alignment=alignment, constraints=constraints)
+        if field == "conjugate" and hasattr(fields, "conjugate_field"):
+            extra = {} if release_separation is None else {"release_separation": release_separation}
+            fld = fields.conjugate_field(V, T, fld.U, fld.W, constraints=constraints, **extra)
+        return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
+    return _fallback_field(V, T, alignment, constraints)
+
+
+# ----------------------------------------------------------------------------------------------
+# cut graph, combing, copies
+
+
+class _Topology(NamedTuple):
+    H: np.ndarray  # (3m, 2) half-edges, index 3f + i goes from corner i to corner i+1
+    twin: np.ndarray  # (3m,) opposite half-edge or -1 on the boundary
+    n: np.ndarray  # (m, 3) unit normals
+    area: np.ndarray  # (m,)
+
+
+def _topology(V: np.ndarray, T: np.ndarray) -> _Topology:
+    m = len(T)
+    H = np.stack([T.ravel(), np.roll(T, -1, axis=1).ravel()], axis=1)
+    topo = edge_topology(T)
+    he = topo.HE
+    order = np.argsort(he, kind="stable")
+    twin = np.full(3 * m, -1, dtype=np.int64)
+    hs = he[order]
+    pair = np.nonzero(hs[1:] == hs[:-1])[0]
+    a, b = order[pair], order[pair + 1]
+    twin[a] = b
+    twin[b] = a
+    N = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    area = 0.5 * np.linalg.norm(N, axis=1)
+    return _Topology(H, twin, _unit(N), area)
+
+
+def _matchings(V, T, tp: _Topology, U, W) -> np.ndarray:
+    """Per half-edge ``h`` (face f) with a twin (face g): ``k`` with ``frame_g ≈ R_k(frame_f)``."""
+    m = len(T)
+    h = np.nonzero(tp.twin >= 0)[0]
+    f = h // 3
+    g = tp.twin[h] // 3
+    d = _unit(V[tp.H[h, 1]] - V[tp.H[h, 0]])
+    # unfold g's vectors into f's plane: components along the edge and along n × d
+    bf = np.cross(tp.n[f], d)
+    bg = np.cross(tp.n[g], d)
+
+    def carry(X):
+        a = np.einsum("ij,ij->i", X, d)
+        b = np.einsum("ij,ij->i", X, bg)
+        return a[:, None] * d + b[:, None] * bf
+
+    Ug, Wg = carry(U[g]), carry(W[g])
+    best = np.full(len(h), -np.inf)
+    k = np.zeros(len(h), dtype=np.int64)
+    for r in range(4):
+        Ur, Wr = _rot_frame(U[f], W[f], np.full(len(h), r))
+        s = np.einsum("ij,ij->i", Ur, Ug) + np.einsum("ij,ij->i", Wr, Wg)
+        better = s > best
+        best[better] = s[better]
+        k[better] = r
+    out = np.full(3 * m, -1, dtype=np.int64)
+    out[h] = k
+    return out
+
+
+def _singular_vertices(T, tp: _Topology, match: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Interior vertices whose matchings around do not sum to 0 mod 4, and that sum."""
+    bnd = np.zeros(n, dtype=bool)
+    bnd[tp.H[tp.twin < 0].ravel()] = True
+    used = np.zeros(n, dtype=bool)
+    used[T.ravel()] = True
+    total = np.zeros(n, dtype=np.int64)
+    ok = tp.twin >= 0
+    np.add.at(total, tp.H[ok, 0], match[ok])
+    total = np.mod(total, 4)
+    sing = np.nonzero(used & ~bnd & (total != 0))[0]
+    return sing, total[sing]
+
+
+def _cut_paths(V, T, tp: _Topology, sing: np.ndarray, loops: list[np.ndarray]) -> tuple[list, list, list[str]]:
+    """Vertex-disjoint shortest paths: singular vertex → boundary, and boundary loop k → loop 0.
+
+    Returns ``paths`` (lists of vertices, singular or loop start first), ``kinds`` ("sing" / "loop") and warnings.
+    """
+    n = len(V)
+    E = edge_topology(T).E
+    L = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
+    bnd = np.zeros(n, dtype=bool)
+    for lp in loops:
+        bnd[lp] = True
+    blocked = np.zeros(n, dtype=bool)
+    blocked[sing] = True
+    paths, kinds, warnings = [], [], []
+
+    def shortest(src, targets_mask, through_mask):
+        """Path from src (list of sources) to the nearest vertex of targets_mask through vertices of through_mask."""
+        a, b = E[:, 0], E[:, 1]
+        ok_ab = through_mask[a] & ~blocked[b] & (through_mask[b] | targets_mask[b])
+        ok_ba = through_mask[b] & ~blocked[a] & (through_mask[a] | targets_mask[a])
+        rows = np.concatenate([a[ok_ab], b[ok_ba]])
+        cols = np.concatenate([b[ok_ab], a[ok_ba]])
+        w = np.concatenate([L[ok_ab], L[ok_ba]])
+        G = sp.csr_matrix((w, (rows, cols)), shape=(n, n))
+        dist, pred, _ = dijkstra(G, directed=True, indices=src, return_predecessors=True, min_only=True)
+        cand = np.nonzero(targets_mask & np.isfinite(dist))[0]
+        if len(cand) == 0:
+            return None
+        t = int(cand[np.argmin(dist[cand])])
+        path = [t]
+        while pred[path[-1]] >= 0:
+            path.append(int(pred[path[-1]]))
+        return path[::-1]
+
+    # extra boundary loops first (they make the surface a disk), then singularities nearest the boundary first
+    for lp in loops[1:]:
+        src_mask = np.zeros(n, dtype=bool)
+        src_mask[lp] = True
+        tgt = np.zeros(n, dtype=bool)
+        tgt[loops[0]] = True
+        tgt &= ~blocked
+        through = ~bnd & ~blocked
+        through_src = through | src_mask
+        p = shortest(np.asarray(lp), tgt, through_src)
+        if p is None:
+            warnings.append("a boundary loop could not be connected to the outer boundary by a cut")
+            continue
+        # the path may run along its own loop at first: start at the last loop vertex on it
+        start = max(i for i, v in enumerate(p) if src_mask[v])
+        p = p[start:]
+        blocked[p] = True
+        paths.append(p)
+        kinds.append("loop")
+    if len(sing):
+        tgt_all = bnd.copy()
+        Gd = None
+        order = sing
+        if len(sing) > 1:
+            a, b = E[:, 0], E[:, 1]
+            Gd = sp.csr_matrix((np.concatenate([L, L]), (np.concatenate([a, b]), np.concatenate([b, a]))),
+                               shape=(n, n))
+            dist = dijkstra(Gd, directed=False, indices=np.nonzero(bnd)[0], min_only=True)
+            order = sing[np.argsort(dist[sing], kind="stable")]
+        for s in order.tolist():
+            blocked[s] = False
+            through = ~bnd & ~blocked
+            p = shortest(s, tgt_all & ~blocked, through)
+            if p is None:
+                blocked[s] = True
+                warnings.append(f"singular vertex {s} could not be cut to the boundary (enclosed by other cuts)")
+                continue
+            blocked[p] = True
+            paths.append(p)
+            kinds.append("sing")
+    return paths, kinds, warnings
+
+
+class _Cuts(NamedTuple):
+    cut_he: np.ndarray  # (3m,) bool: half-edge lies on a cut (both sides marked)
+    comb: np.ndarray  # (m,) quarter turns applied to each face's frame
+    copy: np.ndarray  # (3m,) copy index of every corner
+    ncopies: int
+    left: np.ndarray  # (r,) left copy of each eliminated (right) copy relation
+    right: np.ndarray  # (r,) right copy
+    rot: np.ndarray  # (r,) rotation k of the relation x_R = A_k x_L + t
+    cut_of: np.ndarray  # (r,) index of the cut
+    cut_kind: list  # per cut: "sing" or "loop"
+    cut_source: np.ndarray  # per cut: copy of the singular vertex (or -1)
+    paths: list
+    inconsistent: int
+
+
+def _build_cuts(V, T, tp: _Topology, match: np.ndarray, paths: list, kinds: list) -> _Cuts:
+    m = len(T)
+    # half-edge lookup by directed vertex pair
+    n = len(V)
+    key = tp.H[:, 0] * n + tp.H[:, 1]
+    order = np.argsort(key)
+    skey = key[order]
+
+    def find(a, b):
+        k = a * n + b
+        i = np.searchsorted(skey, k)
+        ok = (i < len(skey)) & (skey[np.minimum(i, len(skey) - 1)] == k)
+        return np.where(ok, order[np.minimum(i, len(skey) - 1)], -1)
+
+    cut_he = np.zeros(3 * m, dtype=bool)
+    path_left = []
+    for p in paths:
+        p = np.asarray(p, dtype=np.int64)
+        hl = find(p[:-1], p[1:])  # face on the left of the travel direction
+        hr = find(p[1:], p[:-1])
+        if np.any(hl < 0) or np.any(hr < 0):
+            raise MeshError("mesh", "a cut runs along a boundary edge (internal error)")
+        cut_he[hl] = True
+        cut_he[hr] = True
+        path_left.append((hl, hr))
+    # combing: BFS over the dual graph without the cuts
+    inner = (tp.twin >= 0) & ~cut_he
+    h = np.nonzero(inner)[0]
+    G = sp.csr_matrix((np.ones(len(h)), (h // 3, tp.twin[h] // 3)), shape=(m, m))
+    ncomp, lab = connected_components(G, directed=False)
+    comb = np.zeros(m, dtype=np.int64)
+    # match per face pair for the tree edges
+    pair_k = {}
+    for root in np.unique(lab, return_index=True)[1]:
+        nodes, pred = breadth_first_order(G, int(root), directed=False, return_predecessors=True)
+        # matching from parent to child: look up half-edge of parent whose twin is in child
+        child = nodes[1:]
+        par = pred[child]
+        # find half-edges of par with twin face == child (uncut)
+        cand = 3 * par[:, None] + np.arange(3)[None, :]
+        tw = tp.twin[cand]
+        hit = (tw >= 0) & (tw // 3 == child[:, None]) & inner[cand]
+        j = np.argmax(hit, axis=1)
+        hk = match[cand[np.arange(len(child)), j]]
+        pair_k = hk
+        # c_child = c_parent - k, in BFS order
+        c = comb
+        for ch, pa, kk in zip(child.tolist(), par.tolist(), pair_k.tolist()):
+            c[ch] = (c[pa] - kk) % 4
+    # matchings after combing: k' = k + c_g - c_f
+    hh = np.nonzero(tp.twin >= 0)[0]
+    kc = np.full(3 * m, -1, dtype=np.int64)
+    kc[hh] = np.mod(match[hh] + comb[tp.twin[hh] // 3] - comb[hh // 3], 4)
+    inconsistent = int(np.count_nonzero(kc[inner] != 0) // 2)
+    # vertex copies: merge corners across uncut interior edges; corner of half-edge h is its 'from' vertex
+    hi = np.nonzero(inner)[0]
+    t = tp.twin[hi]
+    nxt = lambda x: 3 * (x // 3) + (x + 1) % 3  # noqa: E731
+    a1, a2 = hi, nxt(t)  # from-vertex of h == to-vertex of twin
+    b1, b2 = nxt(hi), t
+    rows = np.concatenate([a1, b1])
+    cols = np.concatenate([a2, b2])
+    C = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * m, 3 * m))
+    ncopies, copy = connected_components(C, directed=False)
+    # relations across the cuts: x_R = A x_L + t
+    left, right, rot, cut_of, src = [], [], [], [], []
+    for ci, (hl, hr) in enumerate(path_left):
+        k = kc[hl]  # rotation from the left face to the right face
+        # vertices: from of hl == to of hr, to of hl == from of hr
+        ls = np.concatenate([copy[hl], copy[nxt(hl)]])
+        rs = np.concatenate([copy[nxt(hr)], copy[hr]])
+        ks = np.concatenate([k, k])
+        keep = ls != rs
+        pairs = np.unique(np.stack([ls[keep], rs[keep], ks[keep]], axis=1), axis=0)
+        left.append(pairs[:, 0])
+        right.append(pairs[:, 1])
+        rot.append(pairs[:, 2])
+        cut_of.append(np.full(len(pairs), ci))
+        src.append(int(copy[hl[0]]) if kinds[ci] == "sing" else -1)
+    cat = lambda xs: np.concatenate(xs).astype(np.int64) if xs else np.zeros(0, np.int64)  # noqa: E731
+    return _Cuts(cut_he, comb, copy.astype(np.int64), int(ncopies), cat(left), cat(right), cat(rot), cat(cut_of),
+                 list(kinds), np.asarray(src, dtype=np.int64), paths, inconsistent)
+
+
+# ----------------------------------------------------------------------------------------------
+# the least-squares system
+
+
+def _dual_targets(U: np.ndarray, W: np.ndarray, n: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Dual basis ``U*, W*`` of the (projected) frame in each face plane, times ``scale``."""
+    U = _unit(U - n * np.einsum("ij,ij->i", U, n)[:, None])
+    W = _unit(W - n * np.einsum("ij,ij->i", W, n)[:, None])
+    g11 = np.einsum("ij,ij->i", U, U)
+    g12 = np.einsum("ij,ij->i", U, W)
+    g22 = np.einsum("ij,ij->i", W, W)
+    det = g11 * g22 - g12 * g12
+    det = np.where(np.abs(det) < 1e-6, 1e-6, det)
+    Us = (g22[:, None] * U - g12[:, None] * W) / det[:, None]
+    Ws = (-g12[:, None] * U + g11[:, None] * W) / det[:, None]
+    return scale * Us, scale * Ws
+
+
+def _gradient_operator(V: np.ndarray, T: np.ndarray, tp: _Topology, cols: np.ndarray, ncols: int) -> sp.csr_matrix:
+    """``(3m, ncols)``: gradient of a piecewise-linear function given per corner column ``cols (m, 3)``."""
+    m = len(T)
+    P = V[T]
+    G = np.empty((m, 3, 3))
+    for i in range(3):
+        e = P[:, (i + 2) % 3] - P[:, (i + 1) % 3]
+        G[:, i] = np.cross(tp.n, e) / (2.0 * tp.area[:, None])
+    rows = (3 * np.arange(m)[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)  # (m, corner, xyz)
+    cc = np.broadcast_to(cols[:, :, None], (m, 3, 3))
+    return sp.csr_matrix((G.ravel(), (rows.ravel(), cc.ravel())), shape=(3 * m, ncols))
+
+
+class _Boundary(NamedTuple):
+    seg_copy: np.ndarray  # (b,) copies constrained
+    seg_coord: np.ndarray  # (b,) which coordinate (0 = u, 1 = v) is constant
+    seg_id: np.ndarray  # (b,) segment of the constraint
+    nseg: int
+
+
+def _boundary_segments(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: float, min_run: float,
+                       free_angle: float | None = None) -> _Boundary:
+    """Label each boundary edge with the field family closest to it and group runs into segments.
+
+    With ``free_angle`` (radians), runs of edges farther than that from both families (after merging runs
+    shorter than ``min_run``) are left unconstrained.
+    """
+    n = len(V)
+    bh = np.nonzero(tp.twin < 0)[0]
+    key = tp.H[bh, 0]
+    hof = np.full(n, -1, dtype=np.int64)
+    hof[key] = bh  # boundary half-edge leaving each boundary vertex (manifold boundary: unique)
+    Uc, Wc = _rot_frame(U, W, cuts.comb)
+    copies, coords, segs = [], [], []
+    nseg = 0
+    nxt = lambda x: 3 * (x // 3) + (x + 1) % 3  # noqa: E731
+    for lp in loops:
+        hs = hof[lp]
+        f = hs // 3
+        d = _unit(V[tp.H[hs, 1]] - V[tp.H[hs, 0]])
+        cu = np.abs(np.einsum("ij,ij->i", d, _unit(Uc[f])))
+        cw = np.abs(np.einsum("ij,ij->i", d, _unit(Wc[f])))
+        # along U: v is constant (coordinate 1); along W: u is constant (coordinate 0)
+        lab = np.where(cu >= cw, 1, 0)
+        ln = np.linalg.norm(V[tp.H[hs, 1]] - V[tp.H[hs, 0]], axis=1)
+        ca = cuts.copy[hs]
+        cb = cuts.copy[nxt(hs)]
+        # geometric label: in the combed frame of each face. Across a cut the frame rotates, so compare labels
+        # only within continuous copy chains; a break in copies starts a new segment.
+        brk = np.roll(cb, 1) != ca  # edge i starts a new chain
+        lab = _merge_short_runs(lab, ln, brk, min_run)
+        start = brk | (np.roll(lab, 1) != lab)
+        keep = np.ones(len(hs), dtype=bool)
+        if free_angle is not None:
+            off = np.arccos(np.clip(np.maximum(cu, cw), 0.0, 1.0)) > free_angle
+            keep = ~_merge_short_runs(off.astype(np.int64), ln, brk, min_run).astype(bool)
+            start = start | (np.roll(keep, 1) != keep)
+        if not start.any():
+            start[0] = True
+        first = int(np.argmax(start))
+        sid = np.cumsum(np.roll(start, -first)) - 1
+        sid = np.roll(sid, first) + nseg
+        nseg += int(sid.max() - nseg + 1)
+        copies += [ca[keep], cb[keep]]
+        coords += [lab[keep], lab[keep]]
+        segs += [sid[keep], sid[keep]]
+    if not copies:
+        z = np.zeros(0, dtype=np.int64)
+        return _Boundary(z, z, z, 0)
+    seg_copy = np.concatenate(copies)
+    seg_coord = np.concatenate(coords)
+    seg_id = np.concatenate(segs)
+    u = np.unique(np.stack([seg_copy, seg_coord, seg_id], axis=1), axis=0)
+    return _Boundary(u[:, 0], u[:, 1], u[:, 2], nseg)
+
+
+def _merge_short_runs(lab: np.ndarray, ln: np.ndarray, brk: np.ndarray, min_run: float) -> np.ndarray:
+    """Flip runs of one label shorter than ``min_run`` (between label changes) to the neighbours' label."""
+    lab = lab.copy()
+    nb = len(lab)
+    for _ in range(nb):
+        change = np.roll(lab, 1) != lab
+        if not change.any():
+            break
+        first = int(np.argmax(change))
+        idx = np.roll(np.arange(nb), -first)
+        runs = np.cumsum(change[idx]) - 1
+        rlen = np.bincount(runs, weights=ln[idx])
+        nrun = len(rlen)
+        if nrun <= 2:
+            # two runs only: a loop needs at least 4 turns; leave it
+            break
+        r = int(np.argmin(rlen))
+        if rlen[r] >= min_run:
+            break
+        lab[idx[runs == r]] = 1 - lab[idx[runs == r]]
+    return lab
+
+
+class Parametrization(NamedTuple):
+    """Result of :func:`seamless_parametrization`.
+
+    ``UV (m, 3, 2)`` per-corner parameters in units of the target length, ``U, W (m, 3)`` the combed field,
+    ``singularities (k,)`` singular vertices, ``singularity_turns (k,)`` their matching sum mod 4 (1 or 3: a
+    quarter turn, 2: half), ``cut_edges (c, 2)`` the cut graph, ``angle_error (m,)`` per face in radians,
+    ``flipped`` count of triangles whose parameter image is inverted, ``seam_gap`` largest mismatch of the
+    transition functions (0 up to rounding: exact by construction), ``boundary_gap`` largest distance (grid units)
+    of a boundary vertex from its integer iso-line (the stiff penalty's residual, removed by snapping except at cut
+    ends),
+    ``copy (m, 3)`` vertex copy of every corner, ``warnings``, ``timings``, ``scale`` the global factor applied
+    (size centering × density: the iso-lines are ``target_length / scale`` apart where the field is followed
+    exactly).
+    """
+
+    UV: np.ndarray
+    U: np.ndarray
+    W: np.ndarray
+    singularities: np.ndarray
+    singularity_turns: np.ndarray
+    cut_edges: np.ndarray
+    angle_error: np.ndarray
+    flipped: int
+    seam_gap: float
+    boundary_gap: float
+    copy: np.ndarray
+    warnings: list
+    timings: dict
+    scale: float = 1.0
+
+
+def _parameter_tangents(V: np.ndarray, T: np.ndarray, UV: np.ndarray, eps: float = 0.0):
+    """Per face ``∂x/∂u, ∂x/∂v`` (the columns of ``[e1 e2] · [d1 d2]⁻¹``), the parameter triangle's doubled
+    signed area ``det`` and its scale ``|d1|₁ |d2|₁``; faces with ``|det| ≤ eps`` get tangents as if ``det`` were
+    1 (callers mask them)."""
+    e1 = V[T[:, 1]] - V[T[:, 0]]
+    e2 = V[T[:, 2]] - V[T[:, 0]]
+    d1 = UV[:, 1] - UV[:, 0]
+    d2 = UV[:, 2] - UV[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    safe = np.where(np.abs(det) > eps, det, 1.0)[:, None]
+    # x_u = (e1 d2v - e2 d1v) / det, x_v = (-e1 d2u + e2 d1u) / det
+    xu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) / safe
+    xv = (-e1 * d2[:, 0:1] + e2 * d1[:, 0:1]) / safe
+    return xu, xv, det, np.abs(d1).sum(1) * np.abs(d2).sum(1)
+
+
+def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """Per-face angle (radians) between the parametrization's iso-lines and the field directions.
+
+    The iso-``v`` line through a face runs along ``∂x/∂u`` and the iso-``u`` line along ``∂x/∂v`` (the columns of
+    the inverse Jacobian); the error is the larger of their line angles to ``U`` and ``W``.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    T : (m, 3) int64
+    UV : (m, 3, 2) float64
+        Per-corner parameters.
+    U, W : (m, 3) float64
+        The (combed) field the parametrization was built from.
+
+    Returns
+    -------
+    (m,) float64
+        Angle in radians (π/2 for a degenerate parameter triangle).
+    """
+    xu, xv, det, _ = _parameter_tangents(V, T, UV, eps=1e-14)
+    ok = np.abs(det) > 1e-14
+
+    def line_angle(a, b):
+        c = np.abs(np.einsum("ij,ij->i", _unit(a), _unit(b)))
+        return np.arccos(np.clip(c, 0.0, 1.0))
+
+    err = np.maximum(line_angle(xu, U), line_angle(xv, W))
+    return np.where(ok, err, np.pi / 2)
+
+
+def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray, target_length: float,
+                             boundary: str = "aligned", boundary_weight: float = 1e4, min_run: float = 1.5,
+                             round_batch: float = 0.1, center_sizes: bool = True, density: float = 1.0,
+                             free_angle: float | None = None) -> Parametrization:
+    """Seamless integer-grid parametrization of a triangle mesh following a 4-fold direction field.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices.
+    T : (m, 3) int64
+        Triangles, consistently oriented, edge-manifold, with at least one boundary loop and genus 0 (a disk or a
+        disk with holes).
+    U, W : (m, 3) float64
+        Per-face field directions (any of the four in each face; need not be orthogonal or combed).
+    target_length : float
+        Spacing of the integer iso-lines in model units (> 0).
+    boundary : {"aligned", "free"}
+        ``"aligned"``: each boundary stretch follows an integer iso-line of the family closest to it (boundary
+        cells are whole quads); ``"free"``: the boundary is left free (iso-lines end on it).
+    boundary_weight : float
+        Stiffness of the boundary alignment relative to the field-fitting energy.
+    min_run : float
+        Boundary stretches shorter than ``min_run · target_length`` take the family of their neighbours.
+    round_batch : float
+        Fraction of the remaining integer variables rounded per greedy step (0 rounds one at a time).
+    center_sizes : bool
+        Choose the global scale (within a factor 1.25 of ``1 / target_length``) that puts the most surface area
+        under iso-line spacings within ±25% of the target, instead of the scale whose mean spacing is the target:
+        a field that cannot be followed with a constant spacing (curvature, non-integrability) stretches some
+        regions and compresses others, and the centering keeps the spread around the target.
+    density : float
+        Extra factor on the global scale (1.1 = 10% more iso-lines in each direction), applied after centering.
+    free_angle : float, optional
+        With ``boundary="aligned"``: boundary stretches farther than this angle (radians) from both field
+        families are left free instead of being forced onto an iso-line (a mixed boundary).
+
+    Returns
+    -------
+    Parametrization
+
+    Raises
+    ------
+    MeshError
+        A closed surface or one with handles (genus > 0).
+    InputError
+        Bad target length or mode.
+
+    Notes
+    -----
+    Mixed-integer quadrangulation (Bommes, Zimmer & Kobbelt 2009) with cuts from the singularities to the
+    boundary; the non-orthogonal frame is followed through its dual basis (Liu et al. 2011). See the module notes.
+    """
+    timings = {}
+    t0 = time.perf_counter()
+    V = np.asarray(V, dtype=np.float64)
+    T = np.asarray(T, dtype=np.int64)
+    U = np.asarray(U, dtype=np.float64)
+    W = np.asarray(W, dtype=np.float64)
+    target = _check_length(target_length)
+    _check_choice(boundary, BOUNDARY_MODES, "boundary")
+    bw = check_number(boundary_weight, "boundary_weight", 0)
+    density = check_number(density, "density", 0, above=True)
+    if free_angle is not None:
+        free_angle = check_number(free_angle, "free_angle", 0)
+    n, m = len(V), len(T)
+    if U.shape != (m, 3) or W.shape != (m, 3):
+        raise InputError("field", f"U and W must have shape ({m}, 3), got {U.shape} and {W.shape}")
+    warnings: list[str] = []
+    tp = _topology(V, T)
+    loops = boundary_loops(T)
+    if not loops:
+        raise MeshError("mesh", "the surface is closed: the parametrization needs an open surface (a boundary)")
+    ne = len(edge_topology(T).E)
+    used = np.unique(T)
+    chi = len(used) - ne + m
+    ncomp = connected_components(sp.csr_matrix((np.ones(3 * m), (T.ravel(), np.roll(T, -1, 1).ravel())),
+                                               shape=(n, n)), directed=False)[0] - (n - len(used))
+    if ncomp != 1:
+        raise MeshError("mesh", f"the surface has {ncomp} connected pieces; parametrize them one at a time")
+    genus2 = 2 - len(loops) - chi
+    if genus2 != 0:
+        raise MeshError("mesh", f"the surface has handles (genus {genus2 / 2:g}); only disks with holes are supported")
+    # right-handed frames: W on the counter-clockwise side of U (the cross (±U, ±W) is unchanged)
+    flip = np.einsum("ij,ij->i", np.cross(U, W), tp.n) < 0
+    W = np.where(flip[:, None], -W, W)
+    match = _matchings(V, T, tp, U, W)
+    sing, turns = _singular_vertices(T, tp, match, n)
+    timings["matching"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    paths, kinds, warn = _cut_paths(V, T, tp, sing, loops)
+    warnings += warn
+    cuts = _build_cuts(V, T, tp, match, paths, kinds)
+    if cuts.inconsistent:
+        warnings.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
+    Uc, Wc = _rot_frame(U, W, cuts.comb)
+    timings["cut_graph"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    # ---- variables: free copies (2 each), loop translations (2 each), boundary constants (1 each)
+    nc = cuts.ncopies
+    elim = np.zeros(nc, dtype=bool)
+    elim[cuts.right] = True
+    free = np.nonzero(~elim)[0]
+    col_of = np.full(nc, -1, dtype=np.int64)
+    col_of[free] = np.arange(len(free))
+    nfree = len(free)
+    loop_cuts = [i for i, k in enumerate(kinds) if k == "loop"]
+    tcol = {ci: 2 * nfree + 2 * j for j, ci in enumerate(loop_cuts)}
+    nt = 2 * len(loop_cuts)
+    if boundary == "aligned" and bw > 0:
+        bd = _boundary_segments(V, T, tp, cuts, U, W, loops, target, min_run * target, free_angle)
+        if bd.nseg:  # renumber the segments that kept constraints
+            uq, inv = np.unique(bd.seg_id, return_inverse=True)
+            bd = bd._replace(seg_id=inv.astype(np.int64), nseg=len(uq))
+    else:
+        z = np.zeros(0, dtype=np.int64)
+        bd = _Boundary(z, z, z, 0)
+    ccol0 = 2 * nfree + nt
+    ny = ccol0 + bd.nseg
+    # P: (2 nc, ny), row q -> u of copy q, row nc + q -> v of copy q
+    rows, cols, vals = [], [], []
+    rows += [free, nc + free]
+    cols += [2 * col_of[free], 2 * col_of[free] + 1]
+    vals += [np.ones(nfree), np.ones(nfree)]
+    if len(cuts.right):
+        A = _A[cuts.rot]  # (r, 2, 2)
+        R, Lc = cuts.right, cuts.left
+        for a in range(2):
+            for b in range(2):
+                # x_R[a] += A[a, b] x_L[b]
+                rows.append(a * nc + R)
+                cols.append(2 * col_of[Lc] + b)
+                vals.append(A[:, a, b].astype(float))
+        for ci in range(len(kinds)):
+            sel = cuts.cut_of == ci
+            if not sel.any():
+                continue
+            Rs = R[sel]
+            As = A[sel]
+            if kinds[ci] == "sing":
+                s = cuts.cut_source[ci]
+                IA = np.eye(2)[None] - As
+                for a in range(2):
+                    for b in range(2):
+                        rows.append(a * nc + Rs)
+                        cols.append(np.full(len(Rs), 2 * col_of[s] + b))
+                        vals.append(IA[:, a, b])
+            else:
+                for a in range(2):
+                    rows.append(a * nc + Rs)
+                    cols.append(np.full(len(Rs), tcol[ci] + a))
+                    vals.append(np.ones(len(Rs)))
+    P = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(2 * nc, ny))
+    # ---- energy
+    corner_copy = cuts.copy.reshape(m, 3)
+    G = _gradient_operator(V, T, tp, corner_copy, nc)
+    Us, Ws = _dual_targets(Uc, Wc, tp.n, 1.0 / target)
+    sw = np.repeat(np.sqrt(tp.area), 3)
+    Gw = sp.diags(sw) @ G
+    B = sp.bmat([[Gw, None], [None, Gw]], format="csr")
+    rhs = np.concatenate([sw * Us.ravel(), sw * Ws.ravel()])
+    BP = (B @ P).tocsr()
+    M = (BP.T @ BP).tocsr()
+    b = BP.T @ rhs
+    if bd.nseg:
+        nb = len(bd.seg_copy)
+        # rows: w (x[copy][coord] - c_seg)
+        Prow = P[bd.seg_coord * nc + bd.seg_copy]
+        S = sp.csr_matrix((np.ones(nb), (np.arange(nb), ccol0 + bd.seg_id)), shape=(nb, ny))
+        D = (Prow - S).tocsr()
+        M = M + bw * (D.T @ D)
+    # the energy is invariant under a global translation of the parameters: pin one free copy (no bias)
+    diag_scale = float(M.diagonal().mean()) if ny else 1.0
+    pin = np.zeros(ny)
+    if nfree:
+        pin[[0, 1]] = diag_scale
+    M = (M + sp.diags(pin)).tocsc()
+    timings["assemble"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
+    y0 = lu.solve(b)
+    scale = 1.0
+    if center_sizes:
+        # every constraint is homogeneous, so the relaxed solution for h / s is s times this one
+        X0 = (P @ y0).reshape(2, nc).T[corner_copy]
+        scale = _centering_scale(V, T, X0, target, tp.area)
+    scale *= density
+    y0 = y0 * scale
+    timings["factor_solve"] = time.perf_counter() - t3
+    t4 = time.perf_counter()
+    # ---- integer variables
+    ints = []
+    for ci, k in enumerate(kinds):
+        if k == "sing":
+            s = cuts.cut_source[ci]
+            ints += [2 * col_of[s], 2 * col_of[s] + 1]
+        else:
+            ints += [tcol[ci], tcol[ci] + 1]
+    ints += list(range(ccol0, ny))
+    ints = np.asarray(ints, dtype=np.int64)
+    y = _greedy_round(lu, y0, ints, round_batch)
+    timings["rounding"] = time.perf_counter() - t4
+    # ---- per-corner parameters
+    x = P @ y
+    X = np.stack([x[:nc], x[nc:]], axis=1)
+    if bd.nseg:
+        cval = np.round(y[ccol0:])
+        X[bd.seg_copy, bd.seg_coord] = cval[bd.seg_id]
+        gap = 0.0 if not len(bd.seg_copy) else float(np.max(np.abs(
+            np.stack([x[:nc], x[nc:]], axis=1)[bd.seg_copy, bd.seg_coord] - cval[bd.seg_id])))
+    else:
+        gap = 0.0
+    for ci, k in enumerate(kinds):
+        if k == "sing":
+            s = cuts.cut_source[ci]
+            X[s] = np.round(X[s])
+    # re-derive eliminated copies from their (snapped) left copies so seams stay exact
+    if len(cuts.right):
+        A = _A[cuts.rot].astype(float)
+        tr = np.zeros((len(cuts.right), 2))
+        for ci, k in enumerate(kinds):
+            sel = cuts.cut_of == ci
+            if k == "sing":
+                s = cuts.cut_source[ci]
+                tr[sel] = X[s] - np.einsum("rij,j->ri", A[sel], X[s])
+            else:
+                tr[sel] = np.round(y[[tcol[ci], tcol[ci] + 1]])
+        X[cuts.right] = np.einsum("rij,rj->ri", A, X[cuts.left]) + tr
+        # the eliminated copies on an aligned boundary follow their left copies exactly (seams stay exact); how far
+        # they are from their own segment's integer line is reported
+        if bd.nseg:
+            onb = elim[bd.seg_copy]
+            seam_gap = float(np.max(np.abs(X[bd.seg_copy[onb], bd.seg_coord[onb]]
+                                           - np.round(y[ccol0:])[bd.seg_id[onb]]), initial=0.0))
+        else:
+            seam_gap = 0.0
+    else:
+        seam_gap = 0.0
+    UV = X[corner_copy]
+    d1 = UV[:, 1] - UV[:, 0]
+    d2 = UV[:, 2] - UV[:, 0]
+    signed = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    flipped = int(np.count_nonzero(signed <= 0))
+    if flipped:
+        warnings.append(f"{flipped} triangles are inverted in the parametrization (the field is hard to follow there)")
+    err = field_angle_error(V, T, UV, Uc, Wc)
+    timings["total"] = time.perf_counter() - t0
+    cut_edges = np.array([[p[i], p[i + 1]] for p in paths for i in range(len(p) - 1)], dtype=np.int64).reshape(-1, 2)
+    log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
+              len(ints), timings["total"])
+    resid = 0.0
+    if len(cuts.right):
+        resid = float(np.max(np.abs(X[cuts.right] - np.einsum("rij,rj->ri", A, X[cuts.left]) - tr)))
+    return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, resid, max(gap, seam_gap), corner_copy,
+                           warnings, timings, scale)
+
+
+def _centering_scale(V, T, UV, target: float, area: np.ndarray, spread: float = 0.25,
+                     limit: float = 1.25) -> float:
+    """Global factor ``s`` on the relaxed parameters maximizing the area whose iso-line spacings lie within
+    ``±spread`` of the target (ties: the factor closest to 1).
+
+    Per face the spacings are ``|∂x/∂u|`` and ``|∂x/∂v|`` (model units per unit parameter) of the affine map from
+    the parameter triangle to the surface triangle; scaling the parameters by ``s`` divides them by ``s``.
+    """
+    xu, xv, det, size = _parameter_tangents(V, T, UV, eps=1e-300)
+    ok = det > 1e-12 * (size + 1e-300)
+    if np.count_nonzero(ok) < 3:
+        return 1.0
+    lens = np.concatenate([np.linalg.norm(xu[ok], axis=1), np.linalg.norm(xv[ok], axis=1)]) / target
+    w = np.concatenate([area[ok], area[ok]])
+    cand = np.exp(np.linspace(-np.log(limit), np.log(limit), 81))
+    score = np.array([w[np.abs(lens / c - 1.0) <= spread].sum() for c in cand])
+    best = np.nonzero(score >= score.max() * (1 - 1e-9))[0]
+    return float(cand[best[np.argmin(np.abs(np.log(cand[best])))]])
+
+
+def _greedy_round(lu, y0: np.ndarray, ints: np.ndarray, batch: float) -> np.ndarray:
+    """Round the integer variables greedily (closest to an integer first), re-solving the others each time.
+
+    With ``Z = M⁻¹ E`` (E: unit columns of the integer variables), fixing a set ``S`` to values ``d`` gives
+    ``y = y0 − Z[:, S] λ`` with ``Z[S, S] λ = y0[S] − d`` (Lagrange multipliers of the constraints ``y_S = d``).
+    """
+    k = len(ints)
+    if k == 0:
+        return y0
+    ny = len(y0)
+    E = np.zeros((ny, k))
+    E[ints, np.arange(k)] = 1.0
+    Z = lu.solve(E)
+    Zi = Z[ints]  # (k, k)
+    y0i = y0[ints]
+    fixed = np.zeros(k, dtype=bool)
+    d = np.zeros(k)
+    lam = np.zeros(0)
+    cur = y0i.copy()
+    while not fixed.all():
+        free = np.nonzero(~fixed)[0]
+        dist = np.abs(cur[free] - np.round(cur[free]))
+        take = max(1, int(np.ceil(batch * len(free)))) if batch > 0 else 1
+        pick = free[np.argsort(dist, kind="stable")[:take]]
+        d[pick] = np.round(cur[pick])
+        fixed[pick] = True
+        S = np.nonzero(fixed)[0]
+        lam = np.linalg.lstsq(Zi[np.ix_(S, S)], y0i[S] - d[S], rcond=None)[0]
+        cur = y0i - Zi[:, S] @ lam
+    S = np.nonzero(fixed)[0]
+    y = y0 - Z[:, S] @ lam
+    y[ints] = d
+    return y
+
+
+# ----------------------------------------------------------------------------------------------
+# display
+
+
+def iso_lines(V: np.ndarray, T: np.ndarray, UV: np.ndarray) -> list[np.ndarray]:
+    """Integer iso-line pieces of a per-corner parametrization, one 2-point polyline per triangle crossing.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    T : (m, 3) int64
+    UV : (m, 3, 2) float64
+
+    Returns
+    -------
+    list of (2, 3) float64 arrays
+        Segments of the lines ``u = i`` and ``v = j`` inside each triangle.
+    """
+    from components.fields.extract import iso_segments
+
+    S = iso_segments(V, T, UV)
+    return [s for s in S]
+
+
+# ----------------------------------------------------------------------------------------------
+# published component
+
+
+class ParametrizeResult(NamedTuple):
+    iso_lines: Curves
+    uv_mesh: Mesh
+    singularities: Points
+    mean_angle_error: float
+    max_angle_error: float
+    flipped_triangles: int
+    warnings: list[str]
+
+
+def parametrize(mesh: Mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
+                boundary: str = "aligned") -> ParametrizeResult:
+    """Seamless quad parametrization of a surface mesh following a conjugate (or smooth) direction field.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The design surface ``(V, F)``: an open, oriented, manifold mesh (triangles or polygons), a disk or a disk
+        with holes.
+    target_length : float
+        Panel size: spacing of the integer iso-lines in model units.
+    field : str
+        Direction field to follow: ``"conjugate"`` (planar quads), ``"smooth"`` (smooth field softly aligned
+        to the principal directions) or ``"principal"`` (this module's own smoothed principal directions).
+    alignment : float
+        Weight of the field's pull towards the principal curvature directions (smaller = smoother field, fewer
+        singularities).
+    boundary : str
+        ``"aligned"`` (boundary stretches follow integer iso-lines) or ``"free"``.
+
+    Returns
+    -------
+    iso_lines : Curves
+        The integer iso-lines as short polylines (one per triangle crossing), for display.
+    uv_mesh : Mesh
+        The cut parameter domain as a flat mesh (``z = 0``, ``u, v`` times the target length), one vertex per
+        triangle corner.
+    singularities : Points
+        Positions of the field's singular vertices.
+    mean_angle_error : float
+        Area-weighted mean angle (degrees) between the iso-lines and the field directions.
+    max_angle_error : float
+        Largest per-face angle error (degrees).
+    flipped_triangles : int
+        Triangles whose parameter image is inverted (0 for a valid parametrization).
+
+    Raises
+    ------
+    MeshError
+        Malformed, non-manifold, degenerate or closed mesh, or one with handles.
+    InputError
+        Non-positive target length, unknown field or boundary mode, negative alignment.
+
+    Notes
+    -----
+    Mixed-integer quadrangulation after Bommes, Zimmer & Kobbelt 2009 (cuts from the singularities to the
+    boundary, greedy rounding), following the dual frame of a possibly non-orthogonal field (Liu et al. 2011).
+
+    Example
+    -------
+    >>> res = parametrize((V, F), target_length=1.0)
+    >>> res.mean_angle_error < 10
+    True
+    """
+    target = _check_length(target_length)
+    _check_choice(field, FIELDS, "field")
+    alignment = check_number(alignment, "alignment", 0)
+    _check_choice(boundary, BOUNDARY_MODES, "boundary")
+    V, F, T, _ = _triangle_mesh(mesh)
+    _check_target_against(V, T, target)
+    U, W = direction_field(V, T, field=field, alignment=alignment)
+    par = seamless_parametrization(V, T, U, W, target, boundary=boundary)
+    area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
+    mean_err = float(np.degrees(np.sum(par.angle_error * area) / area.sum()))
+    max_err = float(np.degrees(par.angle_error.max()))
+    m = len(T)
+    uvV = np.concatenate([par.UV.reshape(-1, 2) * (target / par.scale), np.zeros((3 * m, 1))], axis=1)
+    uvF = np.arange(3 * m, dtype=np.int64).reshape(m, 3)
+    return ParametrizeResult(iso_lines(V, T, par.UV), (uvV, uvF), V[par.singularities], mean_err, max_err,
+                             par.flipped, list(par.warnings))

@@ -1,0 +1,414 @@
+"""Principal curvature line network: both families of curvature lines traced on a surface at an even spacing.
+
+The lines of curvature of a surface form an orthogonal and conjugate network; quads laid along it are planar to
+second order and their limit is a conical mesh (Liu et al. 2006). This module
+
+1. estimates the principal directions per triangle (:func:`components.core.curvature.vertex_principal_curvature` then
+   :func:`components.core.curvature.face_principal_curvature`, quadric fits on a ``radius``-ring),
+2. marks **umbilic regions**: triangles whose curvature anisotropy ``|k1 − k2| / (|k1| + |k2| + κ0)`` is below a
+   threshold (``κ0`` = 10% of the median ``|k1| + |k2|``, so nearly flat spots count as umbilic too) — the
+   principal directions are undefined there,
+3. traces both families with the project's streamline tracer (:func:`components.fields.streamlines.evenly_spaced_streamlines`,
+   RK4 on the surface, evenly spaced seeding at the panel size) on the field ``U = PD1, W = PD2``, the first seed
+   in the most central anisotropic triangle. The labels are global (PD1 is the direction of the larger curvature
+   everywhere but at umbilics), so the tracer runs ``labelled``: a line never swaps into the other family (on
+   mixed surfaces such as the wave sample, whose flat-point umbilics carry closed curvature lines around them,
+   swapping mixed both families into one set and left crossings without nodes). Line ends stopped by the
+   Jobard–Lefer separation test (half a panel) are then run on until a quarter panel from the next line
+   (``EXTEND_RATIO``), which removes most interior T-junctions where lines converge, and
+4. **skips** the umbilic regions: every polyline is cut where it enters one, pieces shorter than half a panel are
+   dropped. What was done is said in ``warnings``; a surface that is umbilic almost everywhere (a sphere or plane
+   patch) is refused with a clear error, since it has no curvature network.
+
+Array-level: :func:`principal_field`, :func:`principal_network`, :func:`principal_angle_error`. Published:
+:func:`curvature_network`.
+
+References
+----------
+Liu, Pottmann, Wallner, Yang, Wang, *Geometric modeling with conical meshes and developable surfaces*, SIGGRAPH 2006.
+Alliez, Cohen-Steiner, Devillers, Lévy, Desbrun, *Anisotropic polygonal remeshing*, SIGGRAPH 2003.
+Jobard, Lefer, *Creating evenly-spaced streamlines of arbitrary density*, Visualization in Scientific Computing 1997.
+"""
+from __future__ import annotations
+
+import logging
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from components.core.curvature import face_principal_curvature, vertex_principal_curvature
+from components.core.checks import check_number, validate_mesh
+from components.core.errors import InputError, MeshError
+from components.core.mesh import triangulate
+from components.core.types import Curves, Integers, Mesh
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "AngleError",
+    "CurvatureNetworkResult",
+    "Network",
+    "PrincipalField",
+    "curvature_network",
+    "network_for_mesh",
+    "principal_angle_error",
+    "principal_field",
+    "principal_network",
+]
+
+UMBILIC_ONLY = 0.9  # refuse surfaces whose umbilic area share is above this
+EXTEND_RATIO = 0.25  # separation-stopped line ends continue until a quarter panel from the next line
+
+
+class PrincipalField(NamedTuple):
+    """Per-triangle principal directions and the umbilic mask (see :func:`principal_field`)."""
+
+    PD1: np.ndarray  # (t, 3) unit direction of maximal curvature
+    PD2: np.ndarray  # (t, 3) unit direction of minimal curvature
+    k1: np.ndarray  # (t,)
+    k2: np.ndarray  # (t,)
+    anisotropy: np.ndarray  # (t,) |k1 − k2| / (|k1| + |k2| + κ0), in [0, 1)
+    umbilic: np.ndarray  # (t,) bool, anisotropy below the threshold
+
+
+def principal_field(V: np.ndarray, T: np.ndarray, umbilic_threshold: float = 0.05, radius: int = 2) -> PrincipalField:
+    """Principal directions per triangle, the curvature anisotropy and the umbilic triangles.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertex positions.
+    T : (t, 3) int64
+        Triangles, consistently oriented.
+    umbilic_threshold : float
+        Triangles with anisotropy below this are umbilic (directions undefined).
+    radius : int
+        Ring radius of the curvature fit.
+
+    Returns
+    -------
+    PrincipalField
+
+    Notes
+    -----
+    The anisotropy ``|k1 − k2| / (|k1| + |k2| + κ0)`` with ``κ0`` one tenth of the median ``|k1| + |k2|`` is 1 on a
+    saddle (``k1 k2 < 0``) away from flat spots, tends to 0 at umbilics and at flat points.
+
+    Example
+    -------
+    >>> from components.surfaces.samples import sample_mesh
+    >>> V, T, _ = sample_mesh("saddle", 16)
+    >>> bool(principal_field(V, T).umbilic.any())
+    False
+    """
+    V = np.asarray(V, np.float64)
+    T = np.asarray(T, np.int64)
+    pc = vertex_principal_curvature(V, T, radius=radius)
+    FD1, FD2, k1, k2 = face_principal_curvature(V, T, *pc)
+    tot = np.abs(k1) + np.abs(k2)
+    k0 = 0.1 * float(np.median(tot)) + 1e-300
+    an = np.abs(k1 - k2) / (tot + k0)
+    return PrincipalField(FD1, FD2, k1, k2, an, an < umbilic_threshold)
+
+
+class Network(NamedTuple):
+    """A curvature line network (see :func:`principal_network`)."""
+
+    lines_1: list  # polylines (k, 3) along PD1 (maximal curvature)
+    lines_2: list  # polylines (k, 3) along PD2 (minimal curvature)
+    field: PrincipalField
+    umbilic_fraction: float  # area share of umbilic triangles
+    cut: int  # polylines cut where they entered an umbilic region
+    warnings: list
+
+
+def _default_tracer() -> Callable | None:
+    try:
+        from components.fields.streamlines import evenly_spaced_streamlines
+    except ImportError:
+        return None
+    return evenly_spaced_streamlines
+
+
+def _polylines(out) -> list[np.ndarray]:
+    """Polylines from a tracer's result: a list of (k, 3) arrays, or a NamedTuple carrying one."""
+    if hasattr(out, "_fields"):
+        for name in ("lines", "polylines", "streamlines", "curves"):
+            if name in out._fields:
+                out = getattr(out, name)
+                break
+        else:
+            out = out[0]
+    lines = []
+    for L in out:
+        L = np.asarray(L, np.float64)
+        if L.ndim == 2 and L.shape[1] == 3 and len(L) >= 2:
+            lines.append(L)
+    return lines
+
+
+def _tracer_options(tracer, V, T, fld, h) -> dict:
+    """Keyword options the tracer accepts: a first seed in the most central anisotropic triangle, the shortest
+    line kept (half a panel)."""
+    import inspect
+
+    try:
+        params = inspect.signature(tracer).parameters
+    except (TypeError, ValueError):
+        return {}
+    out = {}
+    if "seeds" in params and (~fld.umbilic).any():
+        cen = V[T].mean(axis=1)
+        ok = np.flatnonzero(~fld.umbilic)
+        i = ok[np.argmin(np.linalg.norm(cen[ok] - V.mean(axis=0), axis=1) / (0.5 + fld.anisotropy[ok]))]
+        out["seeds"] = cen[i][None, :]
+    if "min_length" in params:
+        out["min_length"] = 0.5 * h
+    if "labelled" in params:  # PD1/PD2 are ordered by curvature: a global labelling, no family swaps
+        out["labelled"] = True
+    if "extend_ratio" in params:  # line ends stopped by the separation test run on to a quarter panel
+        out["extend_ratio"] = EXTEND_RATIO
+    return out
+
+
+def _cut_umbilic(V, T, lines, umbilic, min_length):
+    """Split polylines where they run through umbilic triangles; drop pieces shorter than ``min_length``."""
+    if not umbilic.any() or not lines:
+        return lines, 0
+    from components.core.proximity import TriangleIndex
+
+    P = np.concatenate(lines)
+    inside = umbilic[TriangleIndex(V, T).query(P).faces]
+    out, ncut, start = [], 0, 0
+    for L in lines:
+        bad = inside[start:start + len(L)]
+        start += len(L)
+        if not bad.any():
+            out.append(L)
+            continue
+        ncut += 1
+        good = ~bad
+        edges = np.flatnonzero(np.diff(np.r_[0, good.astype(np.int8), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):
+            piece = L[a:b]
+            if len(piece) >= 2 and np.linalg.norm(np.diff(piece, axis=0), axis=1).sum() >= min_length:
+                out.append(piece)
+    return out, ncut
+
+
+def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_threshold: float = 0.05,
+                      radius: int = 2, tracer: Callable | None = None) -> Network:
+    """Both families of principal curvature lines at an even spacing, umbilic regions skipped.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertex positions.
+    T : (t, 3) int64
+        Triangles, consistently oriented.
+    panel_size : float
+        Spacing of neighbouring lines of one family, model units.
+    umbilic_threshold : float
+        Anisotropy below which a triangle is umbilic (see :func:`principal_field`).
+    radius : int
+        Ring radius of the curvature fit.
+    tracer : callable, optional
+        ``tracer(V, T, U, W, family, separation, [seeds=, min_length=]) -> list of (k, 3) polylines``; default the
+        project's :func:`components.fields.streamlines.evenly_spaced_streamlines`.
+
+    Returns
+    -------
+    Network
+
+    Raises
+    ------
+    InputError
+        Non-positive panel size; a surface that is umbilic (or flat) almost everywhere (named ``mesh``).
+    RuntimeError
+        No tracer given and :mod:`components.fields.streamlines` is not available.
+    """
+    V = np.asarray(V, np.float64)
+    T = np.asarray(T, np.int64)
+    h = check_number(panel_size, "panel_size", 0, above=True)
+    warnings: list[str] = []
+    fld = principal_field(V, T, umbilic_threshold=umbilic_threshold, radius=radius)
+    area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
+    frac = float(area[fld.umbilic].sum() / max(area.sum(), 1e-300))
+    if frac > UMBILIC_ONLY:
+        raise InputError("mesh", f"the surface is umbilic or flat almost everywhere ({100 * frac:.0f}% of its area has "
+                                 f"curvature anisotropy below {umbilic_threshold:g}; a sphere or plane patch): its "
+                                 "principal directions are undefined, so it has no curvature network")
+    if tracer is None:
+        tracer = _default_tracer()
+        if tracer is None:
+            raise RuntimeError("the streamline tracer components.fields.streamlines.evenly_spaced_streamlines is not "
+                               "available: pass tracer=")
+    U, W = fld.PD1, fld.PD2
+    kwargs = _tracer_options(tracer, V, T, fld, h)
+    fams, ncut = [], 0
+    for family in (0, 1):
+        lines = _polylines(tracer(V, T, U, W, family, h, **kwargs))
+        lines, c = _cut_umbilic(V, T, lines, fld.umbilic, 0.5 * h)
+        ncut += c
+        fams.append(lines)
+    if frac > 0:
+        warnings.append(f"umbilic regions ({100 * frac:.1f}% of the area, anisotropy < {umbilic_threshold:g}) were "
+                        f"skipped: no lines were seeded there and {ncut} line(s) were cut where they entered them")
+    if not fams[0] or not fams[1]:
+        warnings.append(f"the network has {len(fams[0])} and {len(fams[1])} lines: panel size {h:g} is too large "
+                        "for the surface")
+    return Network(fams[0], fams[1], fld, frac, ncut, warnings)
+
+
+def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: int = 2, tracer=None):
+    """Validate a ``(V, F)`` surface (triangulated) and trace its network: ``(V, T, Network)``."""
+    if not (isinstance(mesh, (tuple, list)) and len(mesh) >= 2):
+        raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
+    V, F = validate_mesh(mesh[0], mesh[1], name="mesh")
+    check_number(panel_size, "panel_size", 0, above=True)
+    t = check_number(umbilic_threshold, "umbilic_threshold", 0)
+    if t >= 1:
+        raise InputError("umbilic_threshold", f"must be below 1, got {umbilic_threshold!r}")
+    T = triangulate(F)[0] if F.shape[1] != 3 else F
+    from components.core.mesh import boundary_loops
+
+    if not boundary_loops(T):
+        raise MeshError("mesh", "the surface is closed (no boundary): the curvature network is rebuilt in a disk "
+                                "parametrization, so cut the surface open first")
+    return V, T, principal_network(V, T, panel_size, umbilic_threshold, radius, tracer)
+
+
+class AngleError(NamedTuple):
+    """Angles between mesh edges and the principal directions (see :func:`principal_angle_error`)."""
+
+    angle: np.ndarray  # (e,) degrees, in [0, 45]
+    away: np.ndarray  # (e,) bool, the edge's midpoint is away from umbilic regions
+    mean: float
+    mean_away_from_umbilics: float
+
+
+def principal_angle_error(Vq: np.ndarray, Fq: np.ndarray, V: np.ndarray, T: np.ndarray, net_or_field,
+                          away_factor: float = 2.0) -> AngleError:
+    """Angle between every edge of a mesh and the nearest principal direction of the surface under it.
+
+    Parameters
+    ----------
+    Vq : (q, 3) float64
+        Mesh (candidate) vertices.
+    Fq : (m, k) int64
+        Its faces.
+    V : (n, 3) float64
+        The surface's vertices.
+    T : (t, 3) int64
+        The surface's triangles.
+    net_or_field : Network or PrincipalField
+        Principal directions and umbilic data of the surface.
+    away_factor : float
+        An edge is "away from umbilics" when the anisotropy under its midpoint is at least ``away_factor`` times
+        the smallest non-umbilic anisotropy used (the umbilic threshold), i.e. its triangle and its neighbourhood
+        are clearly anisotropic.
+
+    Returns
+    -------
+    AngleError
+        Per-edge angles in degrees (edge projected into the tangent plane), the mask of edges away from umbilics
+        and the two means.
+    """
+    from components.core.mesh import edge_topology
+    from components.core.proximity import TriangleIndex
+
+    fld = net_or_field.field if hasattr(net_or_field, "field") else net_or_field
+    E = edge_topology(Fq).E
+    mid = 0.5 * (Vq[E[:, 0]] + Vq[E[:, 1]])
+    f = TriangleIndex(V, T).query(mid).faces
+    d = Vq[E[:, 1]] - Vq[E[:, 0]]
+    N = np.cross(fld.PD1[f], fld.PD2[f])
+    d = d - np.einsum("ij,ij->i", d, N)[:, None] * N
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    c1 = np.abs(np.einsum("ij,ij->i", d, fld.PD1[f]))
+    c2 = np.abs(np.einsum("ij,ij->i", d, fld.PD2[f]))
+    ang = np.degrees(np.arccos(np.clip(np.maximum(c1, c2), 0.0, 1.0)))
+    thr = float(fld.anisotropy[fld.umbilic].max()) if fld.umbilic.any() else 0.0
+    away = fld.anisotropy[f] >= max(away_factor * thr, 1e-12)
+    return AngleError(ang, away, float(ang.mean()) if len(ang) else 0.0,
+                      float(ang[away].mean()) if away.any() else float("nan"))
+
+
+# ----------------------------------------------------------------------------------------------
+# published component
+
+
+class CurvatureNetworkResult(NamedTuple):
+    lines_1: Curves
+    lines_2: Curves
+    count_1: int
+    count_2: int
+    umbilic_faces: Integers
+    umbilic_fraction: float
+    warnings: list[str]
+
+
+def curvature_network(mesh: Mesh, panel_size: float, umbilic_threshold: float = 0.05,
+                      radius: int = 2) -> CurvatureNetworkResult:
+    """Principal curvature line network of a surface: both families traced at an even spacing.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The design surface ``(V, F)``, a triangle (or polygon) mesh with a boundary.
+    panel_size : float
+        Spacing between neighbouring lines of one family, in model units.
+    umbilic_threshold : float
+        Curvature anisotropy ``|k1 − k2| / (|k1| + |k2| + κ0)`` below which a region counts as umbilic: no lines
+        are seeded there and lines entering it are cut.
+    radius : int
+        Ring radius of the curvature fit (larger smooths more).
+
+    Returns
+    -------
+    lines_1 : Curves
+        Lines of maximal curvature (polylines on the surface).
+    lines_2 : Curves
+        Lines of minimal curvature.
+    count_1 : int
+        Number of lines of maximal curvature.
+    count_2 : int
+        Number of lines of minimal curvature.
+    umbilic_faces : Integers
+        Triangles of the (triangulated) surface in umbilic regions.
+    umbilic_fraction : float
+        Area share of the umbilic regions.
+
+    Raises
+    ------
+    MeshError
+        Malformed or closed mesh (named ``mesh``).
+    InputError
+        Non-positive panel size, threshold out of ``[0, 1)``; a surface umbilic almost everywhere (sphere or
+        plane patch).
+
+    Notes
+    -----
+    Liu et al., *Geometric modeling with conical meshes and developable surfaces*, SIGGRAPH 2006; Alliez et al.,
+    *Anisotropic polygonal remeshing*, SIGGRAPH 2003; Jobard & Lefer 1997 (evenly spaced streamlines).
+
+    Example
+    -------
+    >>> from components.surfaces.samples import sample_mesh
+    >>> V, T, _ = sample_mesh("saddle", 24)
+    >>> res = curvature_network((V, T), panel_size=3.0)
+    >>> res.count_1 > 3 and res.count_2 > 3
+    True
+    """
+    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or radius < 1:
+        raise InputError("radius", f"must be a positive integer, got {radius!r}")
+    V, T, net = network_for_mesh(mesh, panel_size, umbilic_threshold, radius)
+    return CurvatureNetworkResult(
+        lines_1=net.lines_1,
+        lines_2=net.lines_2,
+        count_1=len(net.lines_1),
+        count_2=len(net.lines_2),
+        umbilic_faces=np.flatnonzero(net.field.umbilic).astype(np.int64),
+        umbilic_fraction=net.umbilic_fraction,
+        warnings=list(net.warnings),
+    )

@@ -1,0 +1,1 @@
+"""The ``planarize`` stage."""
