@@ -144,24 +144,24 @@ def _curv(V, T):
 
 
 def smooth_field_ours(V, T):
-    from components.fields.field import smooth_field
+    from components.fields.field import smooth_frame_field
 
-    return smooth_field(V, T, alignment=0.1)
+    return smooth_frame_field(V, T, alignment=0.1)
 
 
 def _smooth(V, T):
-    from components.fields.field import smooth_field
+    from components.fields.field import smooth_frame_field
 
     cv = _curv(V, T)
-    return cv, smooth_field(V, T, alignment=0.1, curvature=cv)
+    return cv, smooth_frame_field(V, T, alignment=0.1, curvature=cv)
 
 
 def conjugate_field_ours(V, T):
     """Curvature + smooth field + conjugate field (the pipeline's field stage)."""
-    from components.fields.field import conjugate_field
+    from components.fields.field import conjugate_frame_field
 
     cv, s = _smooth(V, T)
-    return conjugate_field(V, T, s.U, s.W, curvature=cv)
+    return conjugate_frame_field(V, T, s.U, s.W, curvature=cv)
 
 
 def _principal(V, T):
@@ -197,10 +197,10 @@ def streamlines_ours(V, T):
     """Conjugate field, then an evenly spaced net of both families at 2.5 mean edges."""
     from components.fields.streamlines import evenly_spaced_streamlines
 
-    from components.fields.field import conjugate_field
+    from components.fields.field import conjugate_frame_field
 
     cv, s = _smooth(V, T)
-    c = conjugate_field(V, T, s.U, s.W, curvature=cv)
+    c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv)
     return evenly_spaced_streamlines(V, T, c.U, c.W, family=2, separation=2.5 * _mean_edge(V, T))
 
 

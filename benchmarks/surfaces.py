@@ -18,9 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from components.surfaces.curves import curve_points, equal_chord_points, sample_curve  # noqa: E402
 from components.surfaces.samples import sample_mesh  # noqa: E402
 from components.surfaces.generators import (  # noqa: E402
-    scale_translation_surface,
+    scale_translation,
     surface_mesh,
-    translation_surface,
+    translation,
 )
 from components.core.types import NurbsCurve, NurbsSurface  # noqa: E402
 
@@ -114,12 +114,12 @@ def main():
     g = random_curve(rng, 8)
     d = NurbsCurve(3, g.points[:, [1, 0, 2]] * [1, 1, 0.3], g.weights, g.knots)
     for n in (100, 500):
-        ours, r = best(lambda: translation_surface(g, d, n, n))
-        rows.append((f"translation_surface {n}×{n}", ours, None, r.max_planarity))
-        ours, r = best(lambda: translation_surface(g, d, n, n, equal_steps=True), repeat=1)
-        rows.append((f"translation_surface {n}×{n}, equal steps", ours, None, r.max_planarity))
-        ours, r = best(lambda: scale_translation_surface(g, d, scale=0.999, count_u=n, count_v=n))
-        rows.append((f"scale_translation_surface {n}×{n}", ours, None, r.max_planarity))
+        ours, r = best(lambda: translation(g, d, n, n))
+        rows.append((f"translation {n}×{n}", ours, None, r.max_planarity))
+        ours, r = best(lambda: translation(g, d, n, n, equal_steps=True), repeat=1)
+        rows.append((f"translation {n}×{n}, equal steps", ours, None, r.max_planarity))
+        ours, r = best(lambda: scale_translation(g, d, scale=0.999, count_u=n, count_v=n))
+        rows.append((f"scale_translation {n}×{n}", ours, None, r.max_planarity))
 
     for name in ("dome", "canopy"):
         for res in (32, 128, 256):

@@ -1,9 +1,12 @@
 """Python client: call any component of a running server with numpy arrays, trimesh or rhino3dm objects.
 
->>> from ghserver.client import Client
->>> c = Client("http://127.0.0.1:5000")
->>> res = c.call("metrics/planarity", mesh=(V, F))      # doctest: +SKIP
->>> res.max_planarity                                    # doctest: +SKIP
+Example (against a running ``ghserver serve``; ``tests/ghserver/test_published.py`` calls every component this
+way)::
+
+    from ghserver.client import Client
+    c = Client("http://127.0.0.1:5000")
+    res = c.call("metrics/planarity", mesh=(V, F))
+    res.max_planarity
 
 Inputs are encoded by the kind the server's metadata declares; outputs come back as numpy arrays, floats,
 ``(V, F)`` tuples, … in a NamedTuple named after the component. An output spread over several branches comes

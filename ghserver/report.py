@@ -467,7 +467,7 @@ def _summary_table(rows: list[dict]) -> str:
     out = [f'<table><thead><tr><th class="l">surface</th><th class="l">strategy</th><th class="l">status</th>'
            f'{head}<th>time (s)</th></tr></thead><tbody>']
     for r in rows:
-        cls = {"ok": "", "not available": ' class="na"', "failed": ' class="failed"'}[r["status"]]
+        cls = {"ok": "", "failed": ' class="failed"'}[r["status"]]
         cells = []
         for key, _, stage in _SUMMARY_COLUMNS:
             m = r["metrics_before"] if stage == "before" else (

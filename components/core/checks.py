@@ -57,7 +57,8 @@ def check_int(value, name: str, lo: int | None = None, hi: int | None = None) ->
     return v
 
 
-def check_number(value, name: str, lo: float | None = None, *, above: bool = False, finite: bool = True) -> float:
+def check_number(value, name: str, lo: float | None = None, hi: float | None = None, *, above: bool = False,
+                 finite: bool = True) -> float:
     """A real-number input (int, float or numpy scalar, never a bool), optionally bounded below.
 
     Parameters
@@ -68,6 +69,8 @@ def check_number(value, name: str, lo: float | None = None, *, above: bool = Fal
         The input's name (starts the error message).
     lo : float or None
         Lower bound; ``None`` for none.
+    hi : float or None
+        Upper bound (inclusive); ``None`` for none.
     above : bool
         ``True``: the value must be strictly greater than ``lo`` (``lo=0, above=True`` = positive).
     finite : bool
@@ -81,7 +84,17 @@ def check_number(value, name: str, lo: float | None = None, *, above: bool = Fal
     Raises
     ------
     InputError
-        ``"<name>: must be a number, got …"`` or ``"<name>: must be a finite number >= <lo>, got …"``.
+        ``"<name>: must be a number, got …"`` or ``"<name>: must be a finite number >= <lo>, got …"`` (``> <lo>``
+        with ``above``; ``… and <= <hi>`` with an upper bound).
+
+    Examples
+    --------
+    >>> check_number(0.5, "min_coverage", 0, 1)
+    0.5
+    >>> check_number(2, "min_coverage", 0, 1)
+    Traceback (most recent call last):
+    ...
+    components.core.errors.InputError: min_coverage: must be a finite number >= 0 and <= 1, got 2
     """
     if isinstance(value, bool):
         raise InputError(name, f"must be a number, got {value!r}")
@@ -92,10 +105,16 @@ def check_number(value, name: str, lo: float | None = None, *, above: bool = Fal
     bad = math.isnan(x) or (finite and math.isinf(x))
     if lo is not None:
         bad = bad or x < lo or (above and x == lo)
+    if hi is not None:
+        bad = bad or x > hi
     if bad:
         what = "a finite number" if finite else "a number"
-        if lo is not None:
+        if lo is not None and hi is not None:
+            what += f" {'>' if above else '>='} {lo:g} and <= {hi:g}"
+        elif lo is not None:
             what += f" {'>' if above else '>='} {lo:g}"
+        elif hi is not None:
+            what += f" <= {hi:g}"
         raise InputError(name, f"must be {what}, got {value!r}")
     return x
 

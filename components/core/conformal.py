@@ -22,8 +22,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from components.core.checks import validate_mesh
+from components.core.checks import check_choice, check_mesh, validate_mesh
 from components.core.errors import InputError, MeshError
+from components.core.measures import triangle_angles
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.types import Mesh, Points
 
@@ -135,12 +136,10 @@ def _signed_areas_2d(UV: np.ndarray, T: np.ndarray) -> np.ndarray:
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
-def _check_triangles(V, T, name):
-    V = np.asarray(V, dtype=np.float64)
-    T = np.asarray(T, dtype=np.int64)
-    if V.ndim != 2 or V.shape[1] != 3:
-        raise MeshError(name, f"vertices must have shape (n, 3), got {V.shape}")
-    if T.ndim != 2 or T.shape[1] != 3:
+def _triangle_mesh(V, T, name):
+    """``V (n, 3)`` float64 and ``T (t, 3)`` int64 of an array-level call (degenerate triangles allowed)."""
+    V, T = validate_mesh(V, T, name, allow_degenerate=True, manifold=False)
+    if T.shape[1] != 3:
         raise MeshError(name, f"triangles must have shape (t, 3), got {T.shape}")
     return V, T
 
@@ -258,10 +257,9 @@ def lscm(V: np.ndarray, T: np.ndarray, pinned=None, pinned_uv=None, method: str 
     >>> bool(np.allclose(np.linalg.norm(UV[1] - UV[0]), 0.25))
     True
     """
-    V, T = _check_triangles(V, T, "mesh")
+    V, T = _triangle_mesh(V, T, "mesh")
     n = len(V)
-    if method not in ("pinned", "spectral"):
-        raise InputError("method", f"unknown LSCM method {method!r} (use 'pinned' or 'spectral')")
+    check_choice(method, "method", ("pinned", "spectral"))
     loops = boundary_loops(T)
     if not loops:
         raise MeshError("mesh", "the surface is closed (no boundary): cut it open before a conformal map")
@@ -469,11 +467,9 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
     >>> bool(np.allclose(UV, V[:, :2]))
     True
     """
-    V, T = _check_triangles(V, T, "mesh")
-    if shape not in ("disk", "square"):
-        raise InputError("shape", f"unknown target shape {shape!r} (use 'disk' or 'square')")
-    if weights not in ("auto", "cotan", "mean_value"):
-        raise InputError("weights", f"unknown weights {weights!r} (use 'auto', 'cotan' or 'mean_value')")
+    V, T = _triangle_mesh(V, T, "mesh")
+    check_choice(shape, "shape", ("disk", "square"))
+    check_choice(weights, "weights", ("auto", "cotan", "mean_value"))
     n = len(V)
     loops = boundary_loops(T)
     _check_disk(V, T, loops)
@@ -608,21 +604,10 @@ def conformal_distortion(V: np.ndarray, T: np.ndarray, UV: np.ndarray) -> Confor
     det = np.linalg.det(J)
     major = 1.0 if np.sum(np.abs(det) * (det > 0)) >= np.sum(np.abs(det) * (det < 0)) else -1.0
     flipped = det * major <= 0
-    ang3 = _corner_angles(np.stack([P0, P1, P2], axis=1))
-    U3 = np.concatenate([UV[T], np.zeros((len(T), 3, 1))], axis=2)
-    ang2 = _corner_angles(U3)
+    ang3 = triangle_angles(V, T)
+    ang2 = triangle_angles(np.concatenate([UV, np.zeros((len(UV), 1))], axis=1), T)
     angle = np.abs(ang2 - ang3).max(axis=1)
     return ConformalDistortion(ratio, angle, flipped)
-
-
-def _corner_angles(P: np.ndarray) -> np.ndarray:
-    out = np.empty(P.shape[:2])
-    for j in range(3):
-        a, b = P[:, (j + 1) % 3] - P[:, j], P[:, (j + 2) % 3] - P[:, j]
-        c = np.einsum("ij,ij->i", a, b)
-        s = np.linalg.norm(np.cross(a, b), axis=1)
-        out[:, j] = np.arctan2(s, c)
-    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -687,11 +672,8 @@ def conformal_map(mesh: Mesh, method: str = "lscm") -> ConformalMapResult:
     >>> res.flipped, round(res.max_ratio, 6)
     (0, 1.0)
     """
-    if not (isinstance(mesh, (tuple, list)) and len(mesh) == 2):
-        raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
-    V, F = validate_mesh(mesh[0], mesh[1], name="mesh")
-    if method not in ("lscm", "spectral", "disk", "square"):
-        raise InputError("method", f"unknown method {method!r} (use 'lscm', 'spectral', 'disk' or 'square')")
+    V, F = check_mesh(mesh, "mesh")
+    check_choice(method, "method", ("lscm", "spectral", "disk", "square"))
     T, _ = triangulate(F)
     warnings: list[str] = []
     used = _used_vertices(T, len(V))

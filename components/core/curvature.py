@@ -32,8 +32,8 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
-from components.core.checks import validate_mesh
-from components.core.errors import InputError
+from components.core.checks import check_choice, check_int, check_mesh
+from components.core.measures import cross, norm, triangle_angles, unit
 from components.core.mesh import boundary_vertex_mask, triangulate
 from components.core.types import Lines, Mesh, Numbers, Vectors
 
@@ -56,28 +56,13 @@ _MIN_POINTS = 7  # neighbours needed for a 5-parameter fit with some redundancy
 # small vectorized helpers
 
 
-def _unit(X: np.ndarray) -> np.ndarray:
-    L = np.linalg.norm(X, axis=-1, keepdims=True)
-    return np.divide(X, L, out=np.zeros_like(X), where=L > 0)
-
-
-def _corner_angles(V: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Interior angle at each corner of each triangle, ``(t, 3)``."""
-    A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
-    out = np.empty((len(T), 3))
-    for i, (P, Q, R) in enumerate(((A, B, C), (B, C, A), (C, A, B))):
-        u, w = Q - P, R - P
-        out[:, i] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w))
-    return out
-
-
 def _tangent_frames(N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal tangent vectors ``(U, W)`` with ``U × W = N`` for unit normals ``N`` (zero rows get any frame)."""
-    N = np.where(np.linalg.norm(N, axis=1, keepdims=True) > 0, N, np.array([0.0, 0.0, 1.0]))
+    N = np.where(norm(N)[:, None] > 0, N, np.array([0.0, 0.0, 1.0]))
     axis = np.zeros_like(N)
     axis[np.arange(len(N)), np.argmin(np.abs(N), axis=1)] = 1.0
-    U = _unit(np.cross(N, axis))
-    W = np.cross(N, U)
+    U = unit(cross(N, axis))
+    W = cross(N, U)
     return U, W
 
 
@@ -96,8 +81,8 @@ def _sym2_eig(a: np.ndarray, b: np.ndarray, c: np.ndarray):
     return l1, l2, np.cos(theta), np.sin(theta)
 
 
-def _triangles(V, F, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    V, F = validate_mesh(V, F, name=name)
+def _triangles(mesh, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    V, F = check_mesh(mesh, name)
     T, J = triangulate(F)
     return V, F, T, J
 
@@ -128,23 +113,27 @@ def vertex_normals(V: np.ndarray, T: np.ndarray) -> np.ndarray:
 
     Example
     -------
-    >>> N = vertex_normals(V, T)
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(10, 10, 2.0, 2.0, height=lambda x, y: 0.5 * ((x - 1) ** 2 + (y - 1) ** 2))
+    >>> T, _ = triangulate(Q)  # a paraboloid of curvature 1 at its apex, vertex 60 = (1, 1, 0)
+    >>> N = vertex_normals(V, T); (N[60].round(6) + 0.0).tolist()
+    [0.0, 0.0, 1.0]
     """
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
-    FN = _unit(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]))
-    ang = _corner_angles(V, T)
+    FN = unit(cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]))
+    ang = triangle_angles(V, T)
     N = np.zeros_like(V)
     for i in range(3):
         for d in range(3):
             N[:, d] += np.bincount(T[:, i], weights=ang[:, i] * FN[:, d], minlength=len(V))
-    return _unit(N)
+    return unit(N)
 
 
 def _mixed_areas(V: np.ndarray, T: np.ndarray, ang: np.ndarray) -> np.ndarray:
     """Mixed Voronoi area of every vertex (Meyer et al. 2002)."""
     A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
-    area = 0.5 * np.linalg.norm(np.cross(B - A, C - A), axis=1)
+    area = 0.5 * norm(cross(B - A, C - A))
     sq = np.stack([np.einsum("ij,ij->i", C - B, C - B),  # opposite corner 0
                    np.einsum("ij,ij->i", A - C, A - C),  # opposite corner 1
                    np.einsum("ij,ij->i", B - A, B - A)], axis=1)  # opposite corner 2
@@ -314,13 +303,16 @@ def vertex_principal_curvature(V: np.ndarray, T: np.ndarray, radius: int = 2):
 
     Example
     -------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(10, 10, 2.0, 2.0, height=lambda x, y: 0.5 * ((x - 1) ** 2 + (y - 1) ** 2))
+    >>> T, _ = triangulate(Q)  # a paraboloid of curvature 1 at its apex, vertex 60 = (1, 1, 0)
     >>> PD1, PD2, PV1, PV2 = vertex_principal_curvature(V, T, radius=2)
+    >>> round(float(PV1[60]), 6), round(float(PV2[60]), 6)  # bends towards its +z normals: negative
+    (-1.0, -1.0)
     """
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
-    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or radius < 1:
-        raise InputError("radius", f"must be a positive integer, got {radius!r}")
-    radius = int(radius)
+    radius = check_int(radius, "radius", lo=1)
     n = len(V)
     N = vertex_normals(V, T)
     U, W = _tangent_frames(N)
@@ -350,8 +342,8 @@ def vertex_principal_curvature(V: np.ndarray, T: np.ndarray, radius: int = 2):
         R = _ring_pairs(A1, R, 1)
         counts = np.diff(R.indptr) - 1
     l1, l2, cx, cy = _sym2_eig(s11, s12, s22)
-    PD1 = _unit(cx[:, None] * T1 + cy[:, None] * T2)
-    PD2 = _unit(-cy[:, None] * T1 + cx[:, None] * T2)
+    PD1 = unit(cx[:, None] * T1 + cy[:, None] * T2)
+    PD2 = unit(-cy[:, None] * T1 + cx[:, None] * T2)
     unused = np.ones(n, dtype=bool)
     unused[T.ravel()] = False
     if unused.any():
@@ -393,11 +385,16 @@ def face_principal_curvature(V: np.ndarray, T: np.ndarray, PD1, PD2, PV1, PV2):
 
     Example
     -------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(10, 10, 2.0, 2.0, height=lambda x, y: 0.5 * ((x - 1) ** 2 + (y - 1) ** 2))
+    >>> T, _ = triangulate(Q)  # a paraboloid of curvature 1 at its apex, vertex 60 = (1, 1, 0)
     >>> FD1, FD2, FV1, FV2 = face_principal_curvature(V, T, *vertex_principal_curvature(V, T))
+    >>> FD1.shape, bool(np.all(FV1 >= FV2))
+    ((200, 3), True)
     """
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
-    FN = _unit(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]))
+    FN = unit(cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]))
     U, W = _tangent_frames(FN)
     a = np.zeros(len(T))
     b = np.zeros(len(T))
@@ -416,8 +413,8 @@ def face_principal_curvature(V: np.ndarray, T: np.ndarray, PD1, PD2, PV1, PV2):
             c += K * dw * dw
     a, b, c = a / 3.0, b / 3.0, c / 3.0
     l1, l2, cx, cy = _sym2_eig(a, b, c)
-    FD1 = _unit(cx[:, None] * U + cy[:, None] * W)
-    FD2 = np.cross(FN, FD1)
+    FD1 = unit(cx[:, None] * U + cy[:, None] * W)
+    FD2 = cross(FN, FD1)
     return FD1, FD2, l1, l2
 
 
@@ -449,16 +446,19 @@ def gaussian_curvature(V: np.ndarray, T: np.ndarray, method: str = "fit", radius
 
     Example
     -------
-    >>> K = gaussian_curvature(V, T, method="discrete")
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(10, 10, 2.0, 2.0, height=lambda x, y: 0.5 * ((x - 1) ** 2 + (y - 1) ** 2))
+    >>> T, _ = triangulate(Q)  # a paraboloid of curvature 1 at its apex, vertex 60 = (1, 1, 0)
+    >>> K = gaussian_curvature(V, T, method="discrete"); round(float(K[60]), 2)
+    0.99
     """
-    if method not in ("fit", "discrete"):
-        raise InputError("method", f"must be 'fit' or 'discrete', got {method!r}")
+    check_choice(method, "method", ("fit", "discrete"))
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
     _, _, k1, k2 = vertex_principal_curvature(V, T, radius=radius)
     K = k1 * k2
     if method == "discrete":
-        ang = _corner_angles(V, T)
+        ang = triangle_angles(V, T)
         total = np.zeros(len(V))
         for i in range(3):
             total += np.bincount(T[:, i], weights=ang[:, i], minlength=len(V))
@@ -497,16 +497,19 @@ def mean_curvature(V: np.ndarray, T: np.ndarray, method: str = "fit", radius: in
 
     Example
     -------
-    >>> H = mean_curvature(V, T)
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(10, 10, 2.0, 2.0, height=lambda x, y: 0.5 * ((x - 1) ** 2 + (y - 1) ** 2))
+    >>> T, _ = triangulate(Q)  # a paraboloid of curvature 1 at its apex, vertex 60 = (1, 1, 0)
+    >>> H = mean_curvature(V, T); round(float(H[60]), 6)
+    -1.0
     """
-    if method not in ("fit", "discrete"):
-        raise InputError("method", f"must be 'fit' or 'discrete', got {method!r}")
+    check_choice(method, "method", ("fit", "discrete"))
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
     _, _, k1, k2 = vertex_principal_curvature(V, T, radius=radius)
     H = 0.5 * (k1 + k2)
     if method == "discrete":
-        ang = _corner_angles(V, T)
+        ang = triangle_angles(V, T)
         with np.errstate(divide="ignore", invalid="ignore"):
             cot = np.nan_to_num(np.cos(ang) / np.sin(ang))
         LV = np.zeros_like(V)
@@ -585,16 +588,17 @@ def principal_curvature(mesh: Mesh, radius: int = 2) -> CurvatureResult:
 
     Example
     -------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(10, 10, 2.0, 2.0, height=lambda x, y: 0.5 * ((x - 1) ** 2 + (y - 1) ** 2))
     >>> res = principal_curvature((V, F), radius=2)
-    >>> res.k1.shape == (len(V),)
-    True
+    >>> res.k1.shape == (len(V),), round(float(res.gaussian[60]), 6)
+    (True, 1.0)
     """
-    V, F, T, _ = _triangles(*mesh, name="mesh")
-    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or not 1 <= radius <= 6:
-        raise InputError("radius", f"must be an integer from 1 to 6, got {radius!r}")
-    PD1, PD2, k1, k2 = vertex_principal_curvature(V, T, radius=int(radius))
+    V, F, T, _ = _triangles(mesh, "mesh")
+    radius = check_int(radius, "radius", 1, 6)
+    PD1, PD2, k1, k2 = vertex_principal_curvature(V, T, radius=radius)
     E = _edges(T, len(V))
-    h = 0.5 * float(np.mean(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)))
+    h = 0.5 * float(np.mean(norm(V[E[:, 1]] - V[E[:, 0]])))
     lines1 = np.stack([V - h * PD1, V + h * PD1], axis=1)
     lines2 = np.stack([V - h * PD2, V + h * PD2], axis=1)
     return CurvatureResult(PD1, PD2, k1, k2, k1 * k2, 0.5 * (k1 + k2), lines1, lines2)

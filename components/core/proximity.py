@@ -32,8 +32,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from components.core.checks import validate_mesh
+from components.core.checks import check_points, validate_mesh
 from components.core.errors import InputError, MeshError
+from components.core.measures import cross, triangle_angles, unit
 from components.core.mesh import edge_topology, halfedges
 
 log = logging.getLogger(__name__)
@@ -382,9 +383,15 @@ class TriangleIndex:
 
     Example
     -------
-    >>> index = TriangleIndex(V, T)
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(4, 4)  # the unit square in the z = 0 plane, normals +z
+    >>> index = TriangleIndex(V, triangulate(Q)[0])
+    >>> P = np.array([[0.3, 0.6, 2.0], [0.5, 0.5, -1.0]])
     >>> res = index.query(P)             # res.points, res.distances, res.faces, res.barycentric
-    >>> res = index.query(P, signed=True)
+    >>> res.points.round(12).tolist(), res.distances.tolist()
+    ([[0.3, 0.6, 0.0], [0.5, 0.5, 0.0]], [2.0, 1.0])
+    >>> index.query(P, signed=True).distances.tolist()
+    [2.0, -1.0]
     """
 
     def __init__(self, V, T, name: str = "mesh"):
@@ -421,23 +428,15 @@ class TriangleIndex:
 
     def _pseudonormals(self):
         """Face normals, edge pseudo-normals per triangle edge (AB, BC, CA) and angle-weighted vertex normals."""
-        N = np.cross(self.B - self.A, self.C - self.A)
-        L = np.linalg.norm(N, axis=1, keepdims=True)
-        N = np.divide(N, L, out=np.zeros_like(N), where=L > 0)
+        N = unit(cross(self.B - self.A, self.C - self.A))
         topo = edge_topology(self.T)
         EN = np.zeros((len(topo.E), 3))
         np.add.at(EN, topo.HE, np.repeat(N, 3, axis=0))
         edge_normals = EN[topo.HE].reshape(-1, 3, 3)  # halfedge order per face: AB, BC, CA
         VN = np.zeros((len(self.V), 3))
-        corners = (self.A, self.B, self.C)
+        ang = triangle_angles(self.V, self.T)
         for i in range(3):
-            X, Y, Z = corners[i], corners[(i + 1) % 3], corners[(i + 2) % 3]
-            e1, e2 = Y - X, Z - X
-            n1 = np.linalg.norm(e1, axis=1)
-            n2 = np.linalg.norm(e2, axis=1)
-            c = np.einsum("ij,ij->i", e1, e2) / np.maximum(n1 * n2, 1e-300)
-            ang = np.arccos(np.clip(c, -1.0, 1.0))
-            np.add.at(VN, self.T[:, i], ang[:, None] * N)
+            np.add.at(VN, self.T[:, i], ang[:, i, None] * N)
         return N, edge_normals, VN
 
     def query(self, P, signed: bool = False, name: str = "points") -> ClosestPoints:
@@ -463,7 +462,7 @@ class TriangleIndex:
         InputError
             ``P`` is not ``(p, 3)`` finite numbers, or ``signed`` on a mesh that is not oriented.
         """
-        P = _check_points(P, name)
+        P = check_points(P, name)
         if signed and not self.oriented:
             raise InputError(name, "signed distances need an oriented, edge-manifold reference mesh")
         p = len(P)
@@ -523,8 +522,11 @@ def closest_points(P, V, T, signed: bool = False) -> ClosestPoints:
 
     Example
     -------
-    >>> res = closest_points(np.array([[0.2, 0.3, 1.0]]), V, T)
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(2, 2)
+    >>> res = closest_points(np.array([[0.2, 0.3, 1.0]]), V, triangulate(Q)[0])
     >>> res.distances
+    array([1.])
     """
     return TriangleIndex(V, T).query(P, signed=signed)
 
@@ -548,7 +550,7 @@ class PolylineIndex:
     """
 
     def __init__(self, polyline_points, closed: bool = False, name: str = "polyline"):
-        X = _check_points(polyline_points, name)
+        X = check_points(polyline_points, name)
         if closed and len(X) > 2 and np.array_equal(X[0], X[-1]):
             X = X[:-1]
         if len(X) < 2:
@@ -570,7 +572,7 @@ class PolylineIndex:
 
     def query(self, P, name: str = "points") -> PolylineClosestPoints:
         """Closest points on the polyline of every query point (see :class:`PolylineClosestPoints`)."""
-        P = _check_points(P, name)
+        P = check_points(P, name)
         p = len(P)
         seg = np.empty(p, dtype=np.int64)
         t = np.empty(p)
@@ -609,22 +611,10 @@ def closest_points_on_polyline(P, polyline_points, closed: bool = False) -> Poly
 
     Example
     -------
-    >>> res = closest_points_on_polyline(P, boundary_xyz, closed=True)
-    >>> res.points  # slide boundary vertices back onto the boundary curve
+    >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> res = closest_points_on_polyline([[0.5, -0.2, 0.0], [0.1, 0.5, 0.0]], square, closed=True)
+    >>> res.points.round(12).tolist(), res.segments.tolist()  # slide points back onto the boundary curve
+    ([[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]], [0, 3])
     """
     return PolylineIndex(polyline_points, closed=closed).query(P)
 
-
-def _check_points(P, name: str) -> np.ndarray:
-    try:
-        P = np.ascontiguousarray(P, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(name, f"points are not numbers ({exc})") from None
-    if P.ndim == 1 and P.shape[0] == 3:
-        P = P[None, :]
-    if P.ndim != 2 or P.shape[1] != 3:
-        raise InputError(name, f"points must have shape (p, 3), got {P.shape}")
-    bad = ~np.isfinite(P).all(axis=1)
-    if bad.any():
-        raise InputError(name, f"point {int(np.argmax(bad))} has a NaN or infinite coordinate")
-    return P

@@ -14,6 +14,9 @@ Every vertex is a barycentric point of an input triangle, so it lies exactly on 
 oriented like the input (counter-clockwise about its normals). A clean-up then merges vertices closer than a small
 fraction of the target length (slivers along the boundary) and removes faces that became degenerate.
 
+The chain surface → field → parametrization → this extraction is :func:`components.fields.candidate.candidate_mesh`
+(published as ``fields/extract_quads``).
+
 References
 ----------
 D. Bommes, H. Zimmer, L. Kobbelt, "Mixed-integer quadrangulation", SIGGRAPH 2009 (iso-line extraction).
@@ -29,16 +32,17 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+from scipy.sparse.linalg import factorized
 from scipy.spatial import cKDTree
 
+from components.core.measures import corner_angles, nonconvex_faces
 from components.core.mesh import edge_topology, face_corners, face_normals, face_sizes, pad_faces
-from components.planarize.geometry import corner_angles, nonconvex_faces
-from components.core.types import Mesh
+from components.core.proximity import TriangleIndex
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ExtractResult", "Extraction", "extract_quads", "iso_segments", "quad_mesh_from_parametrization",
-           "snap_boundary"]
+__all__ = ["Extraction", "collapse_short_edges", "iso_segments", "quad_mesh_from_parametrization",
+           "relax_edge_lengths", "snap_boundary", "split_large_faces"]
 
 _TOL = 1e-9  # parameter tolerance (in grid units) for "on an iso-line"
 
@@ -379,7 +383,45 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     kept &= deg > 0
     timings["merge"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    # contract chains of degree-2 pass nodes: each edge endpoint at a kept node becomes a private virtual node
+    ca, cb, da, db, first_o = _contract_chains(a, b, kept, Xn)
+    # duplicate chains between the same pair with the same direction (collinear pieces from both sides)
+    kn = np.nonzero(kept)[0]
+    remap = np.full(nn, -1, dtype=np.int64)
+    remap[kn] = np.arange(len(kn))
+    Vc = Xn[kn]
+    # exact rep for tri/bary (the representative point)
+    node_tri = pts.tri[rep]
+    node_bary = pts.bary[rep]
+    FN = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    FN /= np.linalg.norm(FN, axis=1, keepdims=True)
+    Nn = FN[node_tri[kn]]
+    A_, B_ = remap[ca], remap[cb]
+    # half-edges that run along the mesh boundary against its orientation face the outside (also around holes)
+    bdir = lab[pa[pts.bnd[pa] & pts.bnd[pb]]] * nn + lab[pb[pts.bnd[pa] & pts.bnd[pb]]]
+    fwd = np.isin(ca * nn + first_o, bdir)
+    bwd = np.isin(first_o * nn + ca, bdir)
+    outside = np.concatenate([bwd & ~fwd, fwd & ~bwd])
+    cycles, area, hcycles = _faces_from_graph(Vc, Nn, A_, B_, da, db)
+    timings["cells"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    out_c = [bool(outside[hs].any()) for hs in hcycles]
+    faces = [c for c, s, o in zip(cycles, area, out_c) if s > 0 and not o and len(c) >= 3]
+    dropped = sum(1 for c, s, o in zip(cycles, area, out_c) if not o and (s <= 0 or len(c) < 3))
+    Vout, Fout, tri_out, bary_out, grid_out = _cleanup(Vc, faces, node_tri[kn], node_bary[kn], grid[kn], Nn,
+                                                       merge * h)
+    timings["cleanup"] = time.perf_counter() - t3
+    timings["total"] = time.perf_counter() - t0
+    return Extraction(Vout, Fout, tri_out, bary_out, grid_out, dropped, timings)
+
+
+def _contract_chains(a: np.ndarray, b: np.ndarray, kept: np.ndarray, Xn: np.ndarray):
+    """Contract the chains of degree-2 pass nodes of the graph with edges ``(a, b)`` between kept nodes.
+
+    Each edge endpoint at a kept node becomes a private virtual node, so every chain is one connected component
+    with two virtual ends. Returns the chains' end nodes ``ca, cb``, their initial directions ``da`` at ``ca`` and
+    ``db`` at ``cb`` (towards the first node along the chain, positions ``Xn``) and that first node from ``ca``.
+    """
+    nn = len(kept)
     ne = len(a)
     va = np.where(kept[a], nn + 2 * np.arange(ne), a)
     vb = np.where(kept[b], nn + 2 * np.arange(ne) + 1, b)
@@ -402,36 +444,7 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     db = Xn[vother[i1]] - Xn[cb]
     # chain is on the boundary if its first piece is (both nodes of the piece on the boundary)
     good = ca != cb
-    ca, cb, da, db = ca[good], cb[good], da[good], db[good]
-    # duplicate chains between the same pair with the same direction (collinear pieces from both sides)
-    kn = np.nonzero(kept)[0]
-    remap = np.full(nn, -1, dtype=np.int64)
-    remap[kn] = np.arange(len(kn))
-    Vc = Xn[kn]
-    # exact rep for tri/bary (the representative point)
-    node_tri = pts.tri[rep]
-    node_bary = pts.bary[rep]
-    FN = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    FN /= np.linalg.norm(FN, axis=1, keepdims=True)
-    Nn = FN[node_tri[kn]]
-    A_, B_ = remap[ca], remap[cb]
-    # half-edges that run along the mesh boundary against its orientation face the outside (also around holes)
-    bdir = lab[pa[pts.bnd[pa] & pts.bnd[pb]]] * nn + lab[pb[pts.bnd[pa] & pts.bnd[pb]]]
-    first_o = vother[i0][good]
-    fwd = np.isin(ca * nn + first_o, bdir)
-    bwd = np.isin(first_o * nn + ca, bdir)
-    outside = np.concatenate([bwd & ~fwd, fwd & ~bwd])
-    cycles, area, hcycles = _faces_from_graph(Vc, Nn, A_, B_, da, db)
-    timings["cells"] = time.perf_counter() - t2
-    t3 = time.perf_counter()
-    out_c = [bool(outside[hs].any()) for hs in hcycles]
-    faces = [c for c, s, o in zip(cycles, area, out_c) if s > 0 and not o and len(c) >= 3]
-    dropped = sum(1 for c, s, o in zip(cycles, area, out_c) if not o and (s <= 0 or len(c) < 3))
-    Vout, Fout, tri_out, bary_out, grid_out = _cleanup(Vc, faces, node_tri[kn], node_bary[kn], grid[kn], Nn,
-                                                       merge * h)
-    timings["cleanup"] = time.perf_counter() - t3
-    timings["total"] = time.perf_counter() - t0
-    return Extraction(Vout, Fout, tri_out, bary_out, grid_out, dropped, timings)
+    return ca[good], cb[good], da[good], db[good], vother[i0][good]
 
 
 def _cleanup(Vc, faces, tri, bary, grid, Nn, r):
@@ -486,82 +499,6 @@ def _split_pinched(c: list) -> list:
     if len(cur) >= 3:
         out.append(cur)
     return out
-
-
-# ----------------------------------------------------------------------------------------------
-# published component
-
-
-class ExtractResult(NamedTuple):
-    mesh: Mesh
-    quads: int
-    other_faces: int
-    singularities: int
-    quad_ratio: float
-    mean_angle_error: float
-    warnings: list[str]
-
-
-def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
-                  boundary: str = "auto") -> ExtractResult:
-    """Candidate quad-dominant mesh of a surface from the integer iso-lines of a field-aligned parametrization.
-
-    Parameters
-    ----------
-    mesh : Mesh
-        The design surface ``(V, F)``: an open, oriented, manifold mesh (a disk or a disk with holes).
-    target_length : float
-        Panel size (edge length) in model units.
-    field : str
-        ``"conjugate"`` (planar quads), ``"smooth"`` or ``"principal"`` (see :func:`components.fields.parametrize.parametrize`).
-    alignment : float
-        Weight of the field's pull towards the principal curvature directions.
-    boundary : str
-        ``"auto"`` (default: the best of ``"snap"`` and ``"mixed"`` at three grid densities, by quad share, the
-        share of edges within ±30% of the target, then the mean edge nearest the target), ``"snap"`` (free
-        parametrization, grid vertices near the boundary snapped onto it: whole quads along the boundary),
-        ``"mixed"`` (boundary stretches along a field direction follow iso-lines, the rest snapped), ``"aligned"``
-        (every boundary stretch follows an iso-line) or ``"free"`` (clipped cells).
-
-    Returns
-    -------
-    mesh : Mesh
-        The candidate ``(V, F)``: quads (and a few other polygons), every vertex on the input surface, oriented
-        like the input.
-    quads : int
-        Number of quads.
-    other_faces : int
-        Number of faces that are not quads.
-    singularities : int
-        Interior vertices whose valence is not 4.
-    quad_ratio : float
-        Share of quads among the faces.
-    mean_angle_error : float
-        Area-weighted mean angle (degrees) between the parametrization's iso-lines and the field.
-
-    Raises
-    ------
-    MeshError
-        Malformed, non-manifold, degenerate or closed mesh, or one with handles.
-    InputError
-        Non-positive target length, unknown field or boundary mode.
-
-    Notes
-    -----
-    Parametrization after Bommes, Zimmer & Kobbelt 2009, extraction after Ebke et al. 2013 (see
-    :mod:`components.fields.extract`).
-
-    Example
-    -------
-    >>> res = extract_quads((V, F), target_length=1.0)
-    >>> res.quad_ratio > 0.9
-    True
-    """
-    from components.fields import pipeline as pipelines
-
-    res = pipelines.candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary)
-    return ExtractResult((res.V, res.F), res.quads, res.other_faces, res.singularities, res.quad_ratio,
-                         res.mean_angle_error, list(res.warnings))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -656,8 +593,6 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
     The boundary snapping of quad extraction for free boundaries (as in the boundary handling of QEx, Ebke et
     al. 2013, where grid vertices close to the boundary are moved onto it).
     """
-    from components.core.proximity import TriangleIndex
-
     h = float(target_length)
     if len(Fc) == 0:
         return Vc, Fc, tri, bary, grid
@@ -1133,10 +1068,6 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
     V, tri, bary
         The moved candidate vertices and their surface locations (faces unchanged).
     """
-    from scipy.sparse.linalg import factorized
-
-    from components.core.proximity import TriangleIndex
-
     h = float(target_length)
     if len(Fc) == 0 or iterations <= 0:
         return Vc, tri, bary
@@ -1235,15 +1166,36 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
         for i in range(len(c)):
             a, b = c[i], c[(i + 1) % len(c)]
             edge_faces.setdefault((min(a, b), max(a, b)), []).append(fi)
-
-    def bedges(c):
-        return [i for i in range(len(c)) if len(edge_faces[(min(c[i], c[(i + 1) % len(c)]),
-                                                           max(c[i], c[(i + 1) % len(c)]))]) == 1]
-
     dead = np.zeros(len(faces), dtype=bool)
-    # 1. triangle pairs → quads
+    _pair_boundary_triangles(Vc, faces, edge_faces, dead)
+    if _split_boundary_hexagons(Vc, faces, edge_faces, dead, onb & ~fixed, h, stretch):
+        topo = edge_topology(pad_faces([c for fi, c in enumerate(faces) if not dead[fi]]))
+    lab, keep, goal = _collapse_boundary_triangles(Vc, faces, edge_faces, dead, topo, onb, fixed, bc, h, stretch)
+    nv = len(Vc)
+    if not dead.any() and not (lab != np.arange(nv)).any():
+        return Vc, Fc, tri, bary, grid
+    Vc, tri, bary, grid = Vc.copy(), tri.copy(), bary.copy(), grid.copy()
+    if keep:
+        X, t_, b_ = _closest_on_boundary(np.asarray(goal), bc)
+        keep = np.asarray(keep)
+        Vc[keep], tri[keep], bary[keep] = X, t_, b_
+    moved = np.nonzero(lab != np.arange(nv))[0]
+    grid[lab[moved]] |= grid[moved]
+    F = pad_faces([c for fi, c in enumerate(faces) if not dead[fi]])
+    return _relabel(Vc, F, tri, bary, grid, lab)
+
+
+def _boundary_slots(c: list, edge_faces: dict) -> list:
+    """Positions ``i`` of the boundary edges ``c[i] → c[i+1]`` of a face (edges with one face in ``edge_faces``)."""
+    return [i for i in range(len(c)) if len(edge_faces[(min(c[i], c[(i + 1) % len(c)]),
+                                                       max(c[i], c[(i + 1) % len(c)]))]) == 1]
+
+
+def _pair_boundary_triangles(Vc, faces: list, edge_faces: dict, dead: np.ndarray) -> None:
+    """Two triangles sharing an interior edge, one of them on the boundary, become one quad when their union is
+    convex (in place: the quad replaces the boundary triangle, the other is marked dead)."""
     for fi, c in enumerate(faces):
-        if len(c) != 3 or dead[fi] or not bedges(c):
+        if len(c) != 3 or dead[fi] or not _boundary_slots(c, edge_faces):
             continue
         best = None
         for i in range(3):
@@ -1265,17 +1217,22 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
             fj, q = best
             faces[fi] = q
             dead[fj] = True
-    # 2. triangle, quad, triangle around a boundary vertex (the row along a ~45° boundary) → two quads
+
+
+def _split_boundary_hexagons(Vc, faces: list, edge_faces: dict, dead: np.ndarray, movable: np.ndarray, h: float,
+                             stretch: float) -> bool:
+    """A triangle, a quad and a triangle around a movable boundary vertex (the row along a ~45° boundary) become
+    two quads split by the diagonal from that vertex (in place). Returns whether any was split."""
     vf: dict = {}
     for fi, c in enumerate(faces):
         for v in c:
             vf.setdefault(v, []).append(fi)
     split = False
-    for p in np.nonzero(onb & ~fixed)[0].tolist():
+    for p in np.nonzero(movable)[0].tolist():
         fs = vf.get(p, [])
         if len(fs) != 3 or sorted(len(faces[f]) for f in fs) != [3, 3, 4]:
             continue
-        if any(len(faces[f]) == 3 and not bedges(faces[f]) for f in fs):
+        if any(len(faces[f]) == 3 and not _boundary_slots(faces[f], edge_faces) for f in fs):
             continue
         hexa = _union_cycle([faces[f] for f in fs])
         if hexa is None or len(hexa) != 6 or p not in hexa:
@@ -1293,9 +1250,14 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
         split = True
         for v in hexa:
             vf[v] = [f for f in vf[v] if f not in fs] + [f for f in (f0, f1) if v in faces[f]]
-    if split:
-        topo = edge_topology(pad_faces([c for fi, c in enumerate(faces) if not dead[fi]]))
-    # 3. collapse the boundary edge of the remaining boundary triangles
+    return split
+
+
+def _collapse_boundary_triangles(Vc, faces: list, edge_faces: dict, dead: np.ndarray, topo, onb: np.ndarray,
+                                 fixed: np.ndarray, bc: _BoundaryCurve, h: float, stretch: float):
+    """The boundary edge ``p1 p2`` of each remaining boundary triangle ``(g, p1, p2)`` collapses (see
+    :func:`_merge_boundary_triangles`): ``lab`` the vertex relabelling, ``keep`` the merged vertices that move and
+    ``goal`` the points whose closest boundary points they move to."""
     nv = len(Vc)
     nbrs = [set() for _ in range(nv)]
     for a, b in topo.E.tolist():
@@ -1307,7 +1269,7 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
     for fi, c in enumerate(faces):
         if len(c) != 3 or dead[fi]:
             continue
-        be = bedges(c)
+        be = _boundary_slots(c, edge_faces)
         if len(be) != 1:
             continue
         i = be[0]
@@ -1327,14 +1289,4 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
         if not fixed[p1]:
             keep.append(p1)
             goal.append(0.5 * (Vc[p1] + Vc[p2]))
-    if not dead.any() and not (lab != np.arange(nv)).any():
-        return Vc, Fc, tri, bary, grid
-    Vc, tri, bary, grid = Vc.copy(), tri.copy(), bary.copy(), grid.copy()
-    if keep:
-        X, t_, b_ = _closest_on_boundary(np.asarray(goal), bc)
-        keep = np.asarray(keep)
-        Vc[keep], tri[keep], bary[keep] = X, t_, b_
-    moved = np.nonzero(lab != np.arange(nv))[0]
-    grid[lab[moved]] |= grid[moved]
-    F = pad_faces([c for fi, c in enumerate(faces) if not dead[fi]])
-    return _relabel(Vc, F, tri, bary, grid, lab)
+    return lab, keep, goal

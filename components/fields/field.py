@@ -4,8 +4,8 @@ singularities.
 A direction field is, per triangle, a pair of unit tangent vectors ``U, W`` (not necessarily orthogonal) standing
 for the 4-fold set ``(±U, ±W)``. Quads laid along a field are planar to first order where the two directions are
 conjugate with respect to the surface's shape operator (``II(U, W) = 0``); principal directions are conjugate and
-orthogonal, but they carry many singularities, so the pipeline smooths them first (:func:`smooth_field`) and then
-makes the smooth field conjugate (:func:`conjugate_field`).
+orthogonal, but they carry many singularities, so the pipeline smooths them first (:func:`smooth_frame_field`) and then
+makes the smooth field conjugate (:func:`conjugate_frame_field`).
 
 PolyVector representation (Diamanti et al. 2014): in a face's complex frame the pair ``(u, v)`` is the polynomial
 ``(z² − u²)(z² − v²) = z⁴ − Y z² + X`` with ``X = u² v²`` and ``Y = u² + v²``, invariant under ``±u, ±v`` and the
@@ -49,7 +49,7 @@ from components.fields.frames import (
     to_complex,
     check_field,
 )
-from components.core.checks import check_number, validate_mesh
+from components.core.checks import check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.mesh import triangulate
 from components.core.types import Lines, Mesh, Numbers, Points, Vectors
@@ -61,13 +61,13 @@ __all__ = [
     "FieldCurvature",
     "comb_field",
     "conjugacy_error",
+    "conjugate_frame_field",
     "conjugate_field",
-    "conjugate_direction_field",
     "field_curvature",
     "field_matching",
     "field_singularities",
-    "smooth_direction_field",
     "smooth_field",
+    "smooth_frame_field",
 ]
 
 _AREA_SCALE = 1000.0  # per-face weights: alignment · 1000 · (face area / total area)
@@ -106,17 +106,6 @@ class FieldCurvature(NamedTuple):
 
 # ----------------------------------------------------------------------------------------------
 # inputs
-
-
-def _mesh_arrays(V, T, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
-    V, T = validate_mesh(V, T, name=name, kind="tri")
-    return V, T
-
-
-def _check_int(value, name: str, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= int(value) <= hi:
-        raise InputError(name, f"must be an integer from {lo} to {hi}, got {value!r}")
-    return int(value)
 
 
 def field_curvature(V: np.ndarray, T: np.ndarray, radius: int = 2) -> FieldCurvature:
@@ -380,7 +369,7 @@ def _finish(V, T, u, v, fr, dg, cv, aniso) -> Field:
 # smooth field
 
 
-def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constraints=None,
+def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constraints=None,
                  constraint_weight: float | None = None, align_boundary: bool = True, boundary_weight: float = 10.0,
                  curvature: FieldCurvature | None = None, curvature_radius: int = 2,
                  normalize_iterations: int = 20) -> Field:
@@ -439,24 +428,50 @@ def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constrain
 
     Example
     -------
-    >>> fld = smooth_field(V, T, alignment=0.1)
-    >>> fld.U.shape == (len(T), 3)
-    True
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(6, 6, height=lambda x, y: 0.3 * x * y)
+    >>> T = triangulate(Q)[0]
+    >>> fld = smooth_frame_field(V, T, alignment=0.1)
+    >>> fld.U.shape == (len(T), 3), bool(np.allclose(np.linalg.norm(fld.W, axis=1), 1.0))
+    (True, True)
     """
-    V, T = _mesh_arrays(V, T)
+    V, T = validate_mesh(V, T, name="mesh", kind="tri")
     alignment = check_number(alignment, "alignment", 0)
     boundary_weight = check_number(boundary_weight, "boundary_weight", 0)
-    normalize_iterations = _check_int(normalize_iterations, "normalize_iterations", 0, 200)
+    normalize_iterations = check_int(normalize_iterations, "normalize_iterations", 0, 200)
     if constraint_weight is not None:
         constraint_weight = check_number(constraint_weight, "constraint_weight", 0, above=True)
     m = len(T)
     fr = face_frames(V, T)
     dg = dual_graph(V, T, fr)
-    cv = _curvature_arg(curvature, V, T, _check_int(curvature_radius, "curvature_radius", 1, 6), m)
+    cv = _curvature_arg(curvature, V, T, check_int(curvature_radius, "curvature_radius", 1, 6), m)
     cons = _constraints_arg(constraints, m, fr)
     aniso = _anisotropy(cv)
     p = _principal_complex(cv, fr)
+    wX, accX, wY, accY, pinX, pinY = _smooth_terms(V, fr, dg, p, aniso, alignment, align_boundary, boundary_weight,
+                                                   cons, constraint_weight)
+    tX = np.divide(accX, wX, out=np.zeros(m, dtype=complex), where=wX > 0)
+    LX = _connection_laplacian(dg, m, 4)
+    X = _solve_coefficient(LX, wX, tX, pinX)
+    if normalize_iterations:
+        X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
+    if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
+        tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
+        Y = _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
+    else:
+        Y = np.zeros(m, dtype=complex)
+    u, v = _roots(X, Y)
+    fld = _finish(V, T, u, v, fr, dg, cv, aniso)
+    log.debug("smooth_frame_field: %d faces, %d singularities", m, len(fld.singularities))
+    return fld
 
+
+def _smooth_terms(V, fr: FaceFrames, dg: DualGraph, p: np.ndarray, aniso: np.ndarray, alignment: float,
+                  align_boundary: bool, boundary_weight: float, cons, constraint_weight: float | None):
+    """Per-face weights and weighted targets of the ``X`` and ``Y`` systems of :func:`smooth_frame_field`
+    (principal alignment, boundary alignment, soft constraints) and the pinned values of hard constraints:
+    ``wX, accX, wY, accY, pinX, pinY``."""
+    m = len(fr.area)
     share = fr.area / float(fr.area.sum())
     wX = alignment * _AREA_SCALE * share * _alignment_weights(aniso)
     tX = -(p ** 4)
@@ -483,20 +498,7 @@ def smooth_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constrain
             wY[cf] += constraint_weight
             accX[cf] += constraint_weight * cX
             accY[cf] += constraint_weight * cY
-    tX = np.divide(accX, wX, out=np.zeros(m, dtype=complex), where=wX > 0)
-    LX = _connection_laplacian(dg, m, 4)
-    X = _solve_coefficient(LX, wX, tX, pinX)
-    if normalize_iterations:
-        X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
-    if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
-        tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
-        Y = _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
-    else:
-        Y = np.zeros(m, dtype=complex)
-    u, v = _roots(X, Y)
-    fld = _finish(V, T, u, v, fr, dg, cv, aniso)
-    log.debug("smooth_field: %d faces, %d singularities", m, len(fld.singularities))
-    return fld
+    return wX, accX, wY, accY, pinX, pinY
 
 
 # ----------------------------------------------------------------------------------------------
@@ -611,7 +613,7 @@ def _conjugacy_weights(cv: FieldCurvature) -> np.ndarray:
     return np.minimum(1.0, s * s / ref)
 
 
-def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
+def conjugate_frame_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
                     iterations: int = 40, conjugacy_weight: float = 3.0, closeness: float = 0.01,
                     min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,
                     curvature: FieldCurvature | None = None, curvature_radius: int = 2,
@@ -626,7 +628,7 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     T : (m, 3) int64
         Triangles: oriented, edge-manifold, open boundaries and holes allowed.
     U0, W0 : (m, 3) float64
-        Starting field per face (typically :func:`smooth_field`'s ``U, W``).
+        Starting field per face (typically :func:`smooth_frame_field`'s ``U, W``).
     smoothness : float
         Weight of the PolyVector smoothness energy (> 0). Larger = smoother, fewer singularities, less conjugate.
     iterations : int
@@ -634,7 +636,7 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
         the extracted quads' mean planarity went 2.6e-3 → 2.5e-3 from 20 to 40 iterations.
     conjugacy_weight : float
         Weight of the pull towards the per-face closest conjugate pairs (area-share weighted, × curvature
-        importance, as ``alignment`` in :func:`smooth_field`).
+        importance, as ``alignment`` in :func:`smooth_frame_field`).
     closeness : float
         Weight of the pull towards the starting field (area-share weighted).
     min_angle : float
@@ -643,7 +645,7 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     align_boundary : bool
         On faces with a boundary edge prefer the conjugate pair one of whose directions follows the boundary.
     constraints : (faces, directions), optional
-        As in :func:`smooth_field`: with one direction per face ``(c, 3)`` the face keeps the conjugate pair
+        As in :func:`smooth_frame_field`: with one direction per face ``(c, 3)`` the face keeps the conjugate pair
         containing it (when the angle bound allows); with two ``(c, 2, 3)`` the face keeps the given pair.
     curvature : FieldCurvature, optional
         Per-face shape operator (:func:`field_curvature`), computed when omitted.
@@ -687,16 +689,46 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
 
     Example
     -------
-    >>> s = smooth_field(V, T)
-    >>> c = conjugate_field(V, T, s.U, s.W)
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(8, 8, height=lambda x, y: 0.5 * x * x - 0.2 * y * y + 0.3 * x * y)
+    >>> T = triangulate(Q)[0]
+    >>> s = smooth_frame_field(V, T)
+    >>> c = conjugate_frame_field(V, T, s.U, s.W)
     >>> float(c.conjugacy_error.mean()) < float(s.conjugacy_error.mean())
     True
     """
-    V, T = _mesh_arrays(V, T)
+    V, T = validate_mesh(V, T, name="mesh", kind="tri")
     m = len(T)
     U0, W0 = check_field(U0, W0, m, names=("U0", "W0"))
+    smoothness, iterations, conjugacy_weight, closeness, min_angle, release_angle, release_separation = \
+        _conjugate_options(smoothness, iterations, conjugacy_weight, closeness, min_angle, release_angle,
+                           release_separation)
+    fr = face_frames(V, T)
+    dg = dual_graph(V, T, fr)
+    cv = _curvature_arg(curvature, V, T, check_int(curvature_radius, "curvature_radius", 1, 6), m)
+    pb = _conjugate_problem(V, U0, W0, fr, dg, cv, smoothness, closeness, min_angle, align_boundary, constraints)
+    wc = conjugacy_weight * _AREA_SCALE * (fr.area / float(fr.area.sum())) * _conjugacy_weights(cv)
+    active = _conjugacy_weights(cv) > 0
+    u, v, a, pu, pv = _local_global(pb, pb.u0, pb.v0, None, wc, active, iterations)
+    released = np.zeros(m, dtype=bool)
+    if release_angle is not None:
+        released, active, u, v, pu, pv = _release(pb, u, v, a, pu, pv, wc, active, max(1, iterations // 4),
+                                                  release_angle, release_separation)
+    u = np.where(active, pu, u)
+    v = np.where(active, pv, v)
+    if pb.fixed is not None:
+        u[pb.fixed[0]], v[pb.fixed[0]] = pb.fixed[1], pb.fixed[2]
+    fld = _finish(V, T, u, v, fr, dg, cv, pb.aniso)._replace(released=released)
+    log.debug("conjugate_frame_field: %d faces, %d singularities, mean conjugacy error %.2e, %d released", m,
+              len(fld.singularities), float(fld.conjugacy_error.mean()), int(released.sum()))
+    return fld
+
+
+def _conjugate_options(smoothness, iterations, conjugacy_weight, closeness, min_angle, release_angle,
+                       release_separation):
+    """The numeric options of :func:`conjugate_frame_field`, checked."""
     smoothness = check_number(smoothness, "smoothness", 0, above=True)
-    iterations = _check_int(iterations, "iterations", 1, 200)
+    iterations = check_int(iterations, "iterations", 1, 200)
     conjugacy_weight = check_number(conjugacy_weight, "conjugacy_weight", 0, above=True)
     closeness = check_number(closeness, "closeness", 0)
     min_angle = check_number(min_angle, "min_angle", 0)
@@ -705,11 +737,32 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     release_separation = check_number(release_separation, "release_separation", 0)
     if min_angle >= 0.5 * np.pi:
         raise InputError("min_angle", f"must be below π/2, got {min_angle!r}")
-    fr = face_frames(V, T)
-    dg = dual_graph(V, T, fr)
-    cv = _curvature_arg(curvature, V, T, _check_int(curvature_radius, "curvature_radius", 1, 6), m)
-    p = _principal_complex(cv, fr)
-    aniso = _anisotropy(cv)
+    return smoothness, iterations, conjugacy_weight, closeness, min_angle, release_angle, release_separation
+
+
+class _ConjugateProblem(NamedTuple):
+    """What the local-global iterations of :func:`conjugate_frame_field` share."""
+
+    cv: FieldCurvature
+    aniso: np.ndarray  # (m,) curvature anisotropy
+    p: np.ndarray  # (m,) unit complex principal direction d1
+    min_angle: float
+    tau: np.ndarray | None  # (m,) unit complex boundary (or constraint) tangent, NaN where none
+    tau_w: np.ndarray  # (m,) weight of the tangent term
+    fixed: tuple | None  # (faces, u, v): faces whose pair is prescribed
+    u0: np.ndarray  # (m,) unit complex start pair
+    v0: np.ndarray
+    X0: np.ndarray  # (m,) PolyVector coefficients of the start pair
+    Y0: np.ndarray
+    w0: np.ndarray  # (m,) pull to the start field
+    LX: sp.csr_matrix  # smoothness-weighted connection Laplacians of X (degree 4) and Y (degree 2)
+    LY: sp.csr_matrix
+
+
+def _conjugate_problem(V, U0, W0, fr: FaceFrames, dg: DualGraph, cv: FieldCurvature, smoothness: float,
+                       closeness: float, min_angle: float, align_boundary: bool, constraints) -> _ConjugateProblem:
+    """Boundary tangents, constraints, start pair and smoothness operators of :func:`conjugate_frame_field`."""
+    m = len(fr.area)
     tau = _boundary_tangents(V, dg, fr, m) if align_boundary else None
     tau_w = np.full(m, 10.0)
     fixed = None
@@ -727,61 +780,61 @@ def conjugate_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray
     if np.any(np.abs(u0) == 0) or np.any(np.abs(v0) == 0) or not np.isfinite(u0).all():
         raise InputError("U0", "vectors must not be normal to their faces")
     X0, Y0 = _poly(u0, v0)
-    share = fr.area / float(fr.area.sum())
-    wc = conjugacy_weight * _AREA_SCALE * share * _conjugacy_weights(cv)
-    w0 = closeness * _AREA_SCALE * share
-    active = _conjugacy_weights(cv) > 0
+    w0 = closeness * _AREA_SCALE * (fr.area / float(fr.area.sum()))
     LX = smoothness * _connection_laplacian(dg, m, 4)
     LY = smoothness * _connection_laplacian(dg, m, 2)
+    return _ConjugateProblem(cv, _anisotropy(cv), _principal_complex(cv, fr), min_angle, tau, tau_w, fixed, u0, v0,
+                             X0, Y0, w0, LX, LY)
 
-    def local_global(u, v, a, wc, active, count):
-        """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve."""
-        luX = _factor(LX + sp.diags((wc + w0).astype(complex)))
-        luY = _factor(LY + sp.diags((wc + w0).astype(complex)))
-        for _ in range(count):
-            pu, pv, a = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
-            pu = np.where(active, pu, u)
-            pv = np.where(active, pv, v)
-            if fixed is not None:
-                pu[fixed[0]], pv[fixed[0]] = fixed[1], fixed[2]
-            Xp, Yp = _poly(pu, pv)
-            X = luX.solve(wc * Xp + w0 * X0)
-            Y = luY.solve(wc * Yp + w0 * Y0)
-            u, v = _roots(X, Y)
-        pu, pv, _ = _closest_conjugate(u, v, p, cv.k1, cv.k2, min_angle, tau, start=a, tau_weight=tau_w)
-        return u, v, a, pu, pv
 
-    def far(pu, pv, u, v, active):
-        """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle or narrower than
-        the release separation."""
-        narrow = _line_angle(pu, pv) < release_separation
-        out = active & ((_pair_deviation(pu, pv, u, v) > release_angle) | narrow)
-        if fixed is not None:
-            out[fixed[0]] = False
-        return out
+def _local_global(pb: _ConjugateProblem, u, v, a, wc: np.ndarray, active: np.ndarray, count: int):
+    """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve."""
+    luX = _factor(pb.LX + sp.diags((wc + pb.w0).astype(complex)))
+    luY = _factor(pb.LY + sp.diags((wc + pb.w0).astype(complex)))
+    cv = pb.cv
+    for _ in range(count):
+        pu, pv, a = _closest_conjugate(u, v, pb.p, cv.k1, cv.k2, pb.min_angle, pb.tau, start=a, tau_weight=pb.tau_w)
+        pu = np.where(active, pu, u)
+        pv = np.where(active, pv, v)
+        if pb.fixed is not None:
+            pu[pb.fixed[0]], pv[pb.fixed[0]] = pb.fixed[1], pb.fixed[2]
+        Xp, Yp = _poly(pu, pv)
+        X = luX.solve(wc * Xp + pb.w0 * pb.X0)
+        Y = luY.solve(wc * Yp + pb.w0 * pb.Y0)
+        u, v = _roots(X, Y)
+    pu, pv, _ = _closest_conjugate(u, v, pb.p, cv.k1, cv.k2, pb.min_angle, pb.tau, start=a, tau_weight=pb.tau_w)
+    return u, v, a, pu, pv
 
-    u, v, a, pu, pv = local_global(u0, v0, None, wc, active, iterations)
-    released = np.zeros(m, dtype=bool)
-    if release_angle is not None:
-        # faces whose closest conjugate pair is far from the smoothed pair (parabolic lines, where conjugate pairs
-        # collapse onto the asymptotic direction, or a jump to the other branch) would fold the field: they are
-        # released from conjugacy and the global step re-run so the field passes them smoothly
-        released = far(pu, pv, u, v, active)
-        if released.any():
-            wc = np.where(released, 0.0, wc)
-            active = active & ~released
-            u, v, a, pu, pv = local_global(u, v, a, wc, active, max(1, iterations // 4))
-            late = far(pu, pv, u, v, active)
-            released |= late
-            active = active & ~late
-    u = np.where(active, pu, u)
-    v = np.where(active, pv, v)
-    if fixed is not None:
-        u[fixed[0]], v[fixed[0]] = fixed[1], fixed[2]
-    fld = _finish(V, T, u, v, fr, dg, cv, aniso)._replace(released=released)
-    log.debug("conjugate_field: %d faces, %d singularities, mean conjugacy error %.2e, %d released", m,
-              len(fld.singularities), float(fld.conjugacy_error.mean()), int(released.sum()))
-    return fld
+
+def _release(pb: _ConjugateProblem, u, v, a, pu, pv, wc: np.ndarray, active: np.ndarray, count: int,
+             release_angle: float, release_separation: float):
+    """Release the faces whose closest conjugate pair is far from the smoothed pair and re-run ``count``
+    iterations without them: ``released, active, u, v, pu, pv``.
+
+    Such faces (parabolic lines, where conjugate pairs collapse onto the asymptotic direction, or a jump to the
+    other branch) would fold the field: they are released from conjugacy and the global step re-run so the field
+    passes them smoothly; faces that are far after the re-run are released too.
+    """
+    released = _far_faces(pb, pu, pv, u, v, active, release_angle, release_separation)
+    if released.any():
+        wc = np.where(released, 0.0, wc)
+        active = active & ~released
+        u, v, a, pu, pv = _local_global(pb, u, v, a, wc, active, count)
+        late = _far_faces(pb, pu, pv, u, v, active, release_angle, release_separation)
+        released |= late
+        active = active & ~late
+    return released, active, u, v, pu, pv
+
+
+def _far_faces(pb: _ConjugateProblem, pu, pv, u, v, active: np.ndarray, release_angle: float,
+               release_separation: float) -> np.ndarray:
+    """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle or narrower than the
+    release separation."""
+    narrow = _line_angle(pu, pv) < release_separation
+    out = active & ((_pair_deviation(pu, pv, u, v) > release_angle) | narrow)
+    if pb.fixed is not None:
+        out[pb.fixed[0]] = False
+    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -796,11 +849,7 @@ def _display_lines(V, T, U, W):
 
 
 def _published_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
-    try:
-        V, F = mesh
-    except (TypeError, ValueError):
-        raise InputError("mesh", "must be a (vertices, faces) pair") from None
-    V, F = validate_mesh(V, F, name="mesh")
+    V, F = check_mesh(mesh)
     T, _ = triangulate(F)
     return V, T
 
@@ -826,7 +875,7 @@ class SmoothFieldResult(NamedTuple):
     warnings: list[str]
 
 
-def smooth_direction_field(mesh: Mesh, alignment: float = 0.1, align_boundary: bool = True) -> SmoothFieldResult:
+def smooth_field(mesh: Mesh, alignment: float = 0.1, align_boundary: bool = True) -> SmoothFieldResult:
     """Smooth cross field on a mesh, softly aligned to the principal curvature directions (4-PolyVector).
 
     Parameters
@@ -871,16 +920,17 @@ def smooth_direction_field(mesh: Mesh, alignment: float = 0.1, align_boundary: b
 
     Notes
     -----
-    Diamanti, Vaxman, Panozzo & Sorkine-Hornung 2014 (N-PolyVector fields); see :func:`smooth_field`.
+    Diamanti, Vaxman, Panozzo & Sorkine-Hornung 2014 (N-PolyVector fields); see :func:`smooth_frame_field`.
 
     Example
     -------
-    >>> res = smooth_direction_field((V, F), alignment=0.1)
-    >>> res.u.shape[1]
-    3
+    >>> from components.core.mesh import quad_grid
+    >>> res = smooth_field(quad_grid(6, 6, height=lambda x, y: 0.3 * x * y), alignment=0.1)
+    >>> res.u.shape, res.lines_u.shape
+    ((72, 3), (72, 2, 3))
     """
     V, T = _published_mesh(mesh)
-    fld = smooth_field(V, T, alignment=alignment, align_boundary=bool(align_boundary))
+    fld = smooth_frame_field(V, T, alignment=alignment, align_boundary=bool(align_boundary))
     lu, lw = _display_lines(V, T, fld.U, fld.W)
     sel = fld.anisotropy > 0.5
     mean_err = float(fld.alignment_error[sel].mean()) if sel.any() else 0.0
@@ -903,7 +953,7 @@ class ConjugateFieldResult(NamedTuple):
     warnings: list[str]
 
 
-def conjugate_direction_field(mesh: Mesh, alignment: float = 0.1, smoothness: float = 1.0,
+def conjugate_field(mesh: Mesh, alignment: float = 0.1, smoothness: float = 1.0,
                               iterations: int = 20) -> ConjugateFieldResult:
     """Smooth conjugate direction field on a mesh: quads along it are planar to first order (Liu et al. 2011).
 
@@ -955,20 +1005,21 @@ def conjugate_direction_field(mesh: Mesh, alignment: float = 0.1, smoothness: fl
     -----
     Y. Liu et al., "General planar quadrilateral mesh design using conjugate direction field", SIGGRAPH Asia 2011:
     local-global alternation between the closest conjugate pair per triangle and a PolyVector smoothing solve
-    (Diamanti et al. 2014); see :func:`conjugate_field`.
+    (Diamanti et al. 2014); see :func:`conjugate_frame_field`.
 
     Example
     -------
-    >>> res = conjugate_direction_field((V, F))
+    >>> from components.core.mesh import quad_grid
+    >>> res = conjugate_field(quad_grid(8, 8, height=lambda x, y: 0.5 * x * x - 0.2 * y * y + 0.3 * x * y))
     >>> res.mean_conjugacy_error < res.smooth_mean_conjugacy_error
     True
     """
     V, T = _published_mesh(mesh)
     smoothness = check_number(smoothness, "smoothness", 0, above=True)
-    iterations = _check_int(iterations, "iterations", 1, 200)
+    iterations = check_int(iterations, "iterations", 1, 200)
     cv = field_curvature(V, T)
-    s = smooth_field(V, T, alignment=alignment, curvature=cv)
-    fld = conjugate_field(V, T, s.U, s.W, smoothness=smoothness, iterations=iterations, curvature=cv)
+    s = smooth_frame_field(V, T, alignment=alignment, curvature=cv)
+    fld = conjugate_frame_field(V, T, s.U, s.W, smoothness=smoothness, iterations=iterations, curvature=cv)
     lu, lw = _display_lines(V, T, fld.U, fld.W)
     err = fld.conjugacy_error
     return ConjugateFieldResult(fld.U, fld.W, V[fld.singularities], fld.singularity_index, lu, lw, err,

@@ -26,15 +26,11 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from components.core.errors import InputError
+from components.core.measures import corner_angles, unit
 
 log = logging.getLogger(__name__)
 
 TWO_PI = 2.0 * np.pi
-
-
-def _unit(X: np.ndarray) -> np.ndarray:
-    L = np.linalg.norm(X, axis=-1, keepdims=True)
-    return np.divide(X, L, out=np.zeros_like(X), where=L > 0)
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -57,8 +53,8 @@ def face_frames(V: np.ndarray, T: np.ndarray) -> FaceFrames:
     A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
     N = np.cross(B - A, C - A)
     area = 0.5 * np.linalg.norm(N, axis=1)
-    n = _unit(N)
-    e1 = _unit(B - A)
+    n = unit(N)
+    e1 = unit(B - A)
     e2 = np.cross(n, e1)
     return FaceFrames(e1, e2, n, area, (A + B + C) / 3.0)
 
@@ -123,16 +119,6 @@ def dual_graph(V: np.ndarray, T: np.ndarray, fr: FaceFrames) -> DualGraph:
     return DualGraph(f, g, ea, eb, kappa, w, hf[bnd], a[bnd], b[bnd])
 
 
-def corner_angles(V: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Interior angle at every corner ``(m, 3)``."""
-    out = np.empty((len(T), 3))
-    for i in range(3):
-        P, Q, R = V[T[:, i]], V[T[:, (i + 1) % 3]], V[T[:, (i + 2) % 3]]
-        u, w = Q - P, R - P
-        out[:, i] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w))
-    return out
-
-
 def interior_vertex_mask(T: np.ndarray, n: int, dg: DualGraph) -> np.ndarray:
     """``(n,) bool``: vertices used by a face and not on the boundary."""
     used = np.zeros(n, dtype=bool)
@@ -144,8 +130,8 @@ def interior_vertex_mask(T: np.ndarray, n: int, dg: DualGraph) -> np.ndarray:
 
 def angle_defect(V: np.ndarray, T: np.ndarray) -> np.ndarray:
     """``2π − Σ corner angles`` at every vertex (meaningful at interior vertices)."""
-    ang = corner_angles(V, T)
-    s = np.bincount(T.ravel(), weights=ang.ravel(), minlength=len(V))
+    ang = corner_angles(V, T)  # triangles: corner 3f + i is T[f, i]
+    s = np.bincount(T.ravel(), weights=ang, minlength=len(V))
     return TWO_PI - s
 
 

@@ -48,16 +48,21 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 from scipy.sparse.linalg import splu
 
-from components.core.checks import check_number, validate_mesh
+from components.core.checks import check_choice, check_mesh, check_number
+from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
+from components.core.measures import unit
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.types import Curves, Mesh, Points
+from components.fields.extract import iso_segments
+from components.fields.field import conjugate_frame_field, smooth_frame_field
 
 log = logging.getLogger(__name__)
 
 __all__ = [
     "Parametrization",
     "ParametrizeResult",
+    "check_target_fits",
     "direction_field",
     "field_angle_error",
     "parametrize",
@@ -75,11 +80,6 @@ _A = np.array(
 )
 
 
-def _unit(X: np.ndarray) -> np.ndarray:
-    L = np.linalg.norm(X, axis=-1, keepdims=True)
-    return np.divide(X, L, out=np.zeros_like(X), where=L > 0)
-
-
 def _rot_frame(U: np.ndarray, W: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rotate frame pairs by ``k`` quarter turns: ``k = 1`` maps ``(U, W)`` to ``(W, −U)``."""
     k = np.mod(k, 4)[:, None]
@@ -92,32 +92,22 @@ def _rot_frame(U: np.ndarray, W: np.ndarray, k: np.ndarray) -> tuple[np.ndarray,
 # input checks
 
 
-def _check_length(value, name: str = "target_length") -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x) or x <= 0:
-        raise InputError(name, f"must be a positive length, got {value!r}")
-    return x
+def check_target_fits(V: np.ndarray, T: np.ndarray, target: float, name: str = "target_length") -> None:
+    """Raise :class:`~components.core.errors.InputError` when a panel size does not fit the surface ``(V, T)``.
 
+    The size (already checked positive) must not exceed the surface's bounding-box diagonal, and the surface must
+    not hold more than about two million panels of that size.
 
-def _check_choice(value, choices, name: str) -> str:
-    if value not in choices:
-        raise InputError(name, f"must be one of {choices}, got {value!r}")
-    return value
-
-
-def _triangle_mesh(mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Validate a mesh input and fan-triangulate it: ``V, F, T, J``."""
-    if not isinstance(mesh, (tuple, list)) or len(mesh) != 2:
-        raise MeshError(name, "must be a (V, F) pair of vertex and face arrays")
-    V, F = validate_mesh(mesh[0], mesh[1], name=name)
-    T, J = triangulate(F)
-    return V, F, T, J
-
-
-def _check_target_against(V: np.ndarray, T: np.ndarray, target: float, name: str = "target_length") -> None:
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(2, 2)
+    >>> check_target_fits(V, triangulate(Q)[0], 0.5)
+    >>> check_target_fits(V, triangulate(Q)[0], 5.0)
+    Traceback (most recent call last):
+    ...
+    components.core.errors.InputError: target_length: 5 is larger than the surface (1.41421 across): no quad fits
+    """
     diag = float(np.linalg.norm(V[T].reshape(-1, 3).max(axis=0) - V[T].reshape(-1, 3).min(axis=0)))
     if target > diag:
         raise InputError(name, f"{target:g} is larger than the surface ({diag:g} across): no quad fits")
@@ -130,19 +120,17 @@ def _check_target_against(V: np.ndarray, T: np.ndarray, target: float, name: str
 # direction fields
 
 
-def _fallback_field(V: np.ndarray, T: np.ndarray, alignment: float, constraints=None):
+def _smoothed_principal_field(V: np.ndarray, T: np.ndarray, alignment: float, constraints=None):
     """Principal directions smoothed as a 4-RoSy field (orthogonal; conjugate where it follows them).
 
-    Used when :mod:`components.fields.field` is not available. Per face the cross is ``z = e^{4iθ}`` in the face frame;
+    The ``"principal"`` field of :func:`direction_field`. Per face the cross is ``z = e^{4iθ}`` in the face frame;
     energy ``Σ_edges |z_g − r_e z_f|² + alignment · Σ_f a_f |z_f − z0_f|²`` with the connection ``r_e`` across
     each edge and ``a_f`` the curvature anisotropy.
     """
-    from components.core.curvature import face_principal_curvature, vertex_principal_curvature
-
     m = len(T)
     A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
-    n = _unit(np.cross(B - A, C - A))
-    e1 = _unit(B - A)
+    n = unit(np.cross(B - A, C - A))
+    e1 = unit(B - A)
     e2 = np.cross(n, e1)
     PD1, PD2, k1, k2 = vertex_principal_curvature(V, T, radius=2)
     FD1, FD2, FK1, FK2 = face_principal_curvature(V, T, PD1, PD2, k1, k2)
@@ -152,7 +140,7 @@ def _fallback_field(V: np.ndarray, T: np.ndarray, alignment: float, constraints=
     topo = edge_topology(T)
     inner = topo.count == 2
     E, EF = topo.E[inner], topo.EF[inner]
-    d = _unit(V[E[:, 1]] - V[E[:, 0]])
+    d = unit(V[E[:, 1]] - V[E[:, 0]])
     f, g = EF[:, 0], EF[:, 1]
     af = np.arctan2(np.einsum("ij,ij->i", d, e2[f]), np.einsum("ij,ij->i", d, e1[f]))
     ag = np.arctan2(np.einsum("ij,ij->i", d, e2[g]), np.einsum("ij,ij->i", d, e1[g]))
@@ -185,38 +173,9 @@ def _fallback_field(V: np.ndarray, T: np.ndarray, alignment: float, constraints=
     return U, W
 
 
-def _check_constraints(constraint_faces, constraint_directions, m: int):
-    """Validate optional per-face direction constraints: ``(faces (c,), directions (c, 3))`` or ``None``."""
-    if constraint_faces is None and constraint_directions is None:
-        return None
-    if constraint_faces is None or constraint_directions is None:
-        raise InputError("constraint_faces", "faces and directions must be given together")
-    try:
-        cf = np.asarray(constraint_faces, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise InputError("constraint_faces", "must be face indices") from None
-    if len(cf) == 0:
-        return None
-    if not np.all(np.isfinite(cf)) or np.any(cf != np.round(cf)):
-        raise InputError("constraint_faces", "must be integer face indices")
-    cf = cf.astype(np.int64)
-    if np.any((cf < 0) | (cf >= m)):
-        i = int(cf[(cf < 0) | (cf >= m)][0])
-        raise InputError("constraint_faces", f"face {i} does not exist (the mesh has {m} triangles)")
-    try:
-        cd = np.asarray(constraint_directions, dtype=float).reshape(-1, 3)
-    except (TypeError, ValueError):
-        raise InputError("constraint_directions", "must be (c, 3) vectors") from None
-    if len(cd) != len(cf):
-        raise InputError("constraint_directions", f"has {len(cd)} vectors for {len(cf)} constraint faces")
-    if not np.all(np.isfinite(cd)) or np.any(np.linalg.norm(cd, axis=1) == 0):
-        raise InputError("constraint_directions", "vectors must be finite and non-zero")
-    return cf, cd
-
-
 def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alignment: float = 0.1,
                     constraints=None, release_separation: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Per-face field directions ``U, W`` for the parametrization, from :mod:`components.fields.field` when present.
+    """Per-face field directions ``U, W`` for the parametrization (:mod:`components.fields.field`, or principal).
 
     Parameters
     ----------
@@ -225,35 +184,38 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
     T : (m, 3) int64
         Triangles.
     field : {"conjugate", "smooth", "principal"}
-        ``"conjugate"``: the smooth field made conjugate (``fields.conjugate_field``); ``"smooth"``: the smooth
-        field softly aligned to the principal directions (``fields.smooth_field``); ``"principal"``: principal
-        directions smoothed by this module's own 4-RoSy solve (also the fallback when the fields module is
-        missing).
+        ``"conjugate"``: the smooth field made conjugate (:func:`~components.fields.field.conjugate_frame_field`);
+        ``"smooth"``: the smooth field softly aligned to the principal directions
+        (:func:`~components.fields.field.smooth_frame_field`); ``"principal"``: principal directions smoothed by
+        this module's own 4-RoSy solve.
     alignment : float
         Weight of the pull towards the principal directions (smaller = smoother, fewer singularities).
     constraints : tuple (faces (c,), directions (c, 3)), optional
         Prescribed directions on some faces.
     release_separation : float, optional
-        Passed to ``fields.conjugate_field`` (its default when omitted).
+        Passed to :func:`~components.fields.field.conjugate_frame_field` (its default when omitted).
 
     Returns
     -------
     U, W : (m, 3) float64
         Unit tangent directions, ``W`` counter-clockwise from ``U``.
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(6, 6, height=lambda x, y: 0.3 * x * y)
+    >>> T = triangulate(Q)[0]
+    >>> U, W = direction_field(V, T, field="smooth")
+    >>> U.shape == (len(T), 3), bool(np.allclose(np.linalg.norm(W, axis=1), 1.0))
+    (True, True)
     """
-    fields = None
-    if field != "principal":
-        try:
-            from components.fields import field as fields  # noqa: PLW0127
-        except ImportError:  # pragma: no cover - the fields module is optional
-            fields = None
-    if fields is not None and hasattr(fields, "smooth_field"):
-        fld = fields.smooth_field(V, T, alignment=alignment, constraints=constraints)
-        if field == "conjugate" and hasattr(fields, "conjugate_field"):
-            extra = {} if release_separation is None else {"release_separation": release_separation}
-            fld = fields.conjugate_field(V, T, fld.U, fld.W, constraints=constraints, **extra)
-        return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
-    return _fallback_field(V, T, alignment, constraints)
+    if field == "principal":
+        return _smoothed_principal_field(V, T, alignment, constraints)
+    fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints)
+    if field == "conjugate":
+        extra = {} if release_separation is None else {"release_separation": release_separation}
+        fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, **extra)
+    return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -281,7 +243,7 @@ def _topology(V: np.ndarray, T: np.ndarray) -> _Topology:
     twin[b] = a
     N = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     area = 0.5 * np.linalg.norm(N, axis=1)
-    return _Topology(H, twin, _unit(N), area)
+    return _Topology(H, twin, unit(N), area)
 
 
 def _matchings(V, T, tp: _Topology, U, W) -> np.ndarray:
@@ -290,7 +252,7 @@ def _matchings(V, T, tp: _Topology, U, W) -> np.ndarray:
     h = np.nonzero(tp.twin >= 0)[0]
     f = h // 3
     g = tp.twin[h] // 3
-    d = _unit(V[tp.H[h, 1]] - V[tp.H[h, 0]])
+    d = unit(V[tp.H[h, 1]] - V[tp.H[h, 0]])
     # unfold g's vectors into f's plane: components along the edge and along n × d
     bf = np.cross(tp.n[f], d)
     bg = np.cross(tp.n[g], d)
@@ -510,8 +472,8 @@ def _build_cuts(V, T, tp: _Topology, match: np.ndarray, paths: list, kinds: list
 
 def _dual_targets(U: np.ndarray, W: np.ndarray, n: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
     """Dual basis ``U*, W*`` of the (projected) frame in each face plane, times ``scale``."""
-    U = _unit(U - n * np.einsum("ij,ij->i", U, n)[:, None])
-    W = _unit(W - n * np.einsum("ij,ij->i", W, n)[:, None])
+    U = unit(U - n * np.einsum("ij,ij->i", U, n)[:, None])
+    W = unit(W - n * np.einsum("ij,ij->i", W, n)[:, None])
     g11 = np.einsum("ij,ij->i", U, U)
     g12 = np.einsum("ij,ij->i", U, W)
     g22 = np.einsum("ij,ij->i", W, W)
@@ -561,9 +523,9 @@ def _boundary_segments(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: fl
     for lp in loops:
         hs = hof[lp]
         f = hs // 3
-        d = _unit(V[tp.H[hs, 1]] - V[tp.H[hs, 0]])
-        cu = np.abs(np.einsum("ij,ij->i", d, _unit(Uc[f])))
-        cw = np.abs(np.einsum("ij,ij->i", d, _unit(Wc[f])))
+        d = unit(V[tp.H[hs, 1]] - V[tp.H[hs, 0]])
+        cu = np.abs(np.einsum("ij,ij->i", d, unit(Uc[f])))
+        cw = np.abs(np.einsum("ij,ij->i", d, unit(Wc[f])))
         # along U: v is constant (coordinate 1); along W: u is constant (coordinate 0)
         lab = np.where(cu >= cw, 1, 0)
         ln = np.linalg.norm(V[tp.H[hs, 1]] - V[tp.H[hs, 0]], axis=1)
@@ -692,7 +654,7 @@ def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarra
     ok = np.abs(det) > 1e-14
 
     def line_angle(a, b):
-        c = np.abs(np.einsum("ij,ij->i", _unit(a), _unit(b)))
+        c = np.abs(np.einsum("ij,ij->i", unit(a), unit(b)))
         return np.arccos(np.clip(c, 0.0, 1.0))
 
     err = np.maximum(line_angle(xu, U), line_angle(xv, W))
@@ -754,21 +716,82 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     """
     timings = {}
     t0 = time.perf_counter()
+    V, T, U, W, target, bw, density, free_angle = _checked_inputs(V, T, U, W, target_length, boundary,
+                                                                  boundary_weight, density, free_angle)
+    m = len(T)
+    tp = _topology(V, T)
+    loops = _disk_boundary_loops(V, T)
+    # right-handed frames: W on the counter-clockwise side of U (the cross (±U, ±W) is unchanged)
+    W = np.where((np.einsum("ij,ij->i", np.cross(U, W), tp.n) < 0)[:, None], -W, W)
+    match = _matchings(V, T, tp, U, W)
+    sing, turns = _singular_vertices(T, tp, match, len(V))
+    timings["matching"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    paths, kinds, warnings = _cut_paths(V, T, tp, sing, loops)
+    cuts = _build_cuts(V, T, tp, match, paths, kinds)
+    if cuts.inconsistent:
+        warnings.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
+    Uc, Wc = _rot_frame(U, W, cuts.comb)
+    timings["cut_graph"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    bd = _aligned_boundary(V, T, tp, cuts, U, W, loops, target, min_run * target, free_angle,
+                           active=boundary == "aligned" and bw > 0)
+    lay = _layout(cuts, kinds, bd.nseg)
+    P = _copy_map(cuts, kinds, lay)
+    corner_copy = cuts.copy.reshape(m, 3)
+    M, b = _normal_equations(V, T, tp, corner_copy, Uc, Wc, target, P, bd, bw, lay)
+    timings["assemble"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
+    y0 = lu.solve(b)
+    scale = 1.0
+    if center_sizes:  # every constraint is homogeneous: the relaxed solution for h / s is s times this one
+        scale = _centering_scale(V, T, (P @ y0).reshape(2, lay.nc).T[corner_copy], target, tp.area)
+    scale *= density
+    y0 = y0 * scale
+    timings["factor_solve"] = time.perf_counter() - t3
+    t4 = time.perf_counter()
+    ints = _integer_columns(cuts, kinds, lay)
+    y = _greedy_round(lu, y0, ints, round_batch)
+    timings["rounding"] = time.perf_counter() - t4
+    X, boundary_gap, seam_gap = _copy_parameters(P, y, cuts, kinds, lay, bd)
+    UV = X[corner_copy]
+    d1 = UV[:, 1] - UV[:, 0]
+    d2 = UV[:, 2] - UV[:, 0]
+    flipped = int(np.count_nonzero(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] <= 0))
+    if flipped:
+        warnings.append(f"{flipped} triangles are inverted in the parametrization (the field is hard to follow there)")
+    err = field_angle_error(V, T, UV, Uc, Wc)
+    timings["total"] = time.perf_counter() - t0
+    cut_edges = np.array([[p[i], p[i + 1]] for p in paths for i in range(len(p) - 1)], dtype=np.int64).reshape(-1, 2)
+    log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
+              len(ints), timings["total"])
+    return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, seam_gap, boundary_gap, corner_copy,
+                           warnings, timings, scale)
+
+
+def _checked_inputs(V, T, U, W, target_length, boundary, boundary_weight, density, free_angle):
+    """The inputs of :func:`seamless_parametrization` as arrays and checked numbers."""
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
     U = np.asarray(U, dtype=np.float64)
     W = np.asarray(W, dtype=np.float64)
-    target = _check_length(target_length)
-    _check_choice(boundary, BOUNDARY_MODES, "boundary")
+    target = check_number(target_length, "target_length", 0, above=True)
+    check_choice(boundary, "boundary", BOUNDARY_MODES)
     bw = check_number(boundary_weight, "boundary_weight", 0)
     density = check_number(density, "density", 0, above=True)
     if free_angle is not None:
         free_angle = check_number(free_angle, "free_angle", 0)
-    n, m = len(V), len(T)
+    m = len(T)
     if U.shape != (m, 3) or W.shape != (m, 3):
         raise InputError("field", f"U and W must have shape ({m}, 3), got {U.shape} and {W.shape}")
-    warnings: list[str] = []
-    tp = _topology(V, T)
+    return V, T, U, W, target, bw, density, free_angle
+
+
+def _disk_boundary_loops(V: np.ndarray, T: np.ndarray) -> list:
+    """Boundary loops of a connected disk with holes; :class:`MeshError` for a closed surface, several pieces or
+    handles (genus > 0)."""
+    n, m = len(V), len(T)
     loops = boundary_loops(T)
     if not loops:
         raise MeshError("mesh", "the surface is closed: the parametrization needs an open surface (a boundary)")
@@ -782,22 +805,36 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     genus2 = 2 - len(loops) - chi
     if genus2 != 0:
         raise MeshError("mesh", f"the surface has handles (genus {genus2 / 2:g}); only disks with holes are supported")
-    # right-handed frames: W on the counter-clockwise side of U (the cross (±U, ±W) is unchanged)
-    flip = np.einsum("ij,ij->i", np.cross(U, W), tp.n) < 0
-    W = np.where(flip[:, None], -W, W)
-    match = _matchings(V, T, tp, U, W)
-    sing, turns = _singular_vertices(T, tp, match, n)
-    timings["matching"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    paths, kinds, warn = _cut_paths(V, T, tp, sing, loops)
-    warnings += warn
-    cuts = _build_cuts(V, T, tp, match, paths, kinds)
-    if cuts.inconsistent:
-        warnings.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
-    Uc, Wc = _rot_frame(U, W, cuts.comb)
-    timings["cut_graph"] = time.perf_counter() - t1
-    t2 = time.perf_counter()
-    # ---- variables: free copies (2 each), loop translations (2 each), boundary constants (1 each)
+    return loops
+
+
+def _aligned_boundary(V, T, tp: _Topology, cuts: _Cuts, U, W, loops, target: float, min_run: float,
+                      free_angle: float | None, active: bool) -> _Boundary:
+    """The boundary segments that follow an iso-line (:func:`_boundary_segments`), numbered from 0; none unless
+    ``active``."""
+    if not active:
+        z = np.zeros(0, dtype=np.int64)
+        return _Boundary(z, z, z, 0)
+    bd = _boundary_segments(V, T, tp, cuts, U, W, loops, target, min_run, free_angle)
+    if bd.nseg:  # renumber the segments that kept constraints
+        uq, inv = np.unique(bd.seg_id, return_inverse=True)
+        bd = bd._replace(seg_id=inv.astype(np.int64), nseg=len(uq))
+    return bd
+
+
+class _Layout(NamedTuple):
+    """Columns of the unknowns ``y``: free copies (2 each), loop translations (2 each), boundary constants (1 each)."""
+
+    nc: int  # vertex copies
+    elim: np.ndarray  # (nc,) bool: the copy is eliminated (the right side of a cut)
+    col_of: np.ndarray  # (nc,) index of each free copy among the free copies (-1 when eliminated)
+    nfree: int  # free copies
+    tcol: dict  # loop cut → first column of its translation
+    ccol0: int  # first column of the boundary constants
+    ny: int  # unknowns
+
+
+def _layout(cuts: _Cuts, kinds: list, nseg: int) -> _Layout:
     nc = cuts.ncopies
     elim = np.zeros(nc, dtype=bool)
     elim[cuts.right] = True
@@ -807,22 +844,18 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     nfree = len(free)
     loop_cuts = [i for i, k in enumerate(kinds) if k == "loop"]
     tcol = {ci: 2 * nfree + 2 * j for j, ci in enumerate(loop_cuts)}
-    nt = 2 * len(loop_cuts)
-    if boundary == "aligned" and bw > 0:
-        bd = _boundary_segments(V, T, tp, cuts, U, W, loops, target, min_run * target, free_angle)
-        if bd.nseg:  # renumber the segments that kept constraints
-            uq, inv = np.unique(bd.seg_id, return_inverse=True)
-            bd = bd._replace(seg_id=inv.astype(np.int64), nseg=len(uq))
-    else:
-        z = np.zeros(0, dtype=np.int64)
-        bd = _Boundary(z, z, z, 0)
-    ccol0 = 2 * nfree + nt
-    ny = ccol0 + bd.nseg
-    # P: (2 nc, ny), row q -> u of copy q, row nc + q -> v of copy q
-    rows, cols, vals = [], [], []
-    rows += [free, nc + free]
-    cols += [2 * col_of[free], 2 * col_of[free] + 1]
-    vals += [np.ones(nfree), np.ones(nfree)]
+    ccol0 = 2 * nfree + 2 * len(loop_cuts)
+    return _Layout(nc, elim, col_of, nfree, tcol, ccol0, ccol0 + nseg)
+
+
+def _copy_map(cuts: _Cuts, kinds: list, lay: _Layout) -> sp.csr_matrix:
+    """``P (2 nc, ny)``: row ``q`` gives ``u`` of copy ``q``, row ``nc + q`` its ``v``, from the unknowns; an
+    eliminated copy is ``x_R = A x_L + t`` with ``t = (I − A) x_s`` (singular cut) or a free translation (loop)."""
+    nc, col_of = lay.nc, lay.col_of
+    free = np.nonzero(~lay.elim)[0]
+    rows = [free, nc + free]
+    cols = [2 * col_of[free], 2 * col_of[free] + 1]
+    vals = [np.ones(lay.nfree), np.ones(lay.nfree)]
     if len(cuts.right):
         A = _A[cuts.rot]  # (r, 2, 2)
         R, Lc = cuts.right, cuts.left
@@ -849,12 +882,17 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
             else:
                 for a in range(2):
                     rows.append(a * nc + Rs)
-                    cols.append(np.full(len(Rs), tcol[ci] + a))
+                    cols.append(np.full(len(Rs), lay.tcol[ci] + a))
                     vals.append(np.ones(len(Rs)))
-    P = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(2 * nc, ny))
-    # ---- energy
-    corner_copy = cuts.copy.reshape(m, 3)
-    G = _gradient_operator(V, T, tp, corner_copy, nc)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(2 * nc, lay.ny))
+
+
+def _normal_equations(V, T, tp: _Topology, corner_copy: np.ndarray, Uc, Wc, target: float, P: sp.csr_matrix,
+                      bd: _Boundary, bw: float, lay: _Layout) -> tuple[sp.csc_matrix, np.ndarray]:
+    """``M y = b`` of the least-squares energy (area-weighted gradient fit to the dual frame over ``target``,
+    the stiff boundary penalty with weight ``bw``) in the unknowns, one free copy pinned."""
+    G = _gradient_operator(V, T, tp, corner_copy, lay.nc)
     Us, Ws = _dual_targets(Uc, Wc, tp.n, 1.0 / target)
     sw = np.repeat(np.sqrt(tp.area), 3)
     Gw = sp.diags(sw) @ G
@@ -866,46 +904,41 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     if bd.nseg:
         nb = len(bd.seg_copy)
         # rows: w (x[copy][coord] - c_seg)
-        Prow = P[bd.seg_coord * nc + bd.seg_copy]
-        S = sp.csr_matrix((np.ones(nb), (np.arange(nb), ccol0 + bd.seg_id)), shape=(nb, ny))
+        Prow = P[bd.seg_coord * lay.nc + bd.seg_copy]
+        S = sp.csr_matrix((np.ones(nb), (np.arange(nb), lay.ccol0 + bd.seg_id)), shape=(nb, lay.ny))
         D = (Prow - S).tocsr()
         M = M + bw * (D.T @ D)
     # the energy is invariant under a global translation of the parameters: pin one free copy (no bias)
-    diag_scale = float(M.diagonal().mean()) if ny else 1.0
-    pin = np.zeros(ny)
-    if nfree:
+    diag_scale = float(M.diagonal().mean()) if lay.ny else 1.0
+    pin = np.zeros(lay.ny)
+    if lay.nfree:
         pin[[0, 1]] = diag_scale
-    M = (M + sp.diags(pin)).tocsc()
-    timings["assemble"] = time.perf_counter() - t2
-    t3 = time.perf_counter()
-    lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
-    y0 = lu.solve(b)
-    scale = 1.0
-    if center_sizes:
-        # every constraint is homogeneous, so the relaxed solution for h / s is s times this one
-        X0 = (P @ y0).reshape(2, nc).T[corner_copy]
-        scale = _centering_scale(V, T, X0, target, tp.area)
-    scale *= density
-    y0 = y0 * scale
-    timings["factor_solve"] = time.perf_counter() - t3
-    t4 = time.perf_counter()
-    # ---- integer variables
+    return (M + sp.diags(pin)).tocsc(), b
+
+
+def _integer_columns(cuts: _Cuts, kinds: list, lay: _Layout) -> np.ndarray:
+    """Unknowns rounded to integers: singular positions, loop translations, boundary constants."""
     ints = []
     for ci, k in enumerate(kinds):
         if k == "sing":
             s = cuts.cut_source[ci]
-            ints += [2 * col_of[s], 2 * col_of[s] + 1]
+            ints += [2 * lay.col_of[s], 2 * lay.col_of[s] + 1]
         else:
-            ints += [tcol[ci], tcol[ci] + 1]
-    ints += list(range(ccol0, ny))
-    ints = np.asarray(ints, dtype=np.int64)
-    y = _greedy_round(lu, y0, ints, round_batch)
-    timings["rounding"] = time.perf_counter() - t4
-    # ---- per-corner parameters
+            ints += [lay.tcol[ci], lay.tcol[ci] + 1]
+    ints += list(range(lay.ccol0, lay.ny))
+    return np.asarray(ints, dtype=np.int64)
+
+
+def _copy_parameters(P: sp.csr_matrix, y: np.ndarray, cuts: _Cuts, kinds: list, lay: _Layout, bd: _Boundary):
+    """Parameters ``X (nc, 2)`` of every copy from the rounded unknowns ``y``: boundary constants and singular
+    vertices snapped to their integers, eliminated copies re-derived from their (snapped) left copies so the seams
+    stay exact. Also the boundary gap (largest distance of a boundary copy from its integer line before snapping,
+    and of an eliminated boundary copy after) and the seam residual."""
+    nc = lay.nc
     x = P @ y
     X = np.stack([x[:nc], x[nc:]], axis=1)
     if bd.nseg:
-        cval = np.round(y[ccol0:])
+        cval = np.round(y[lay.ccol0:])
         X[bd.seg_copy, bd.seg_coord] = cval[bd.seg_id]
         gap = 0.0 if not len(bd.seg_copy) else float(np.max(np.abs(
             np.stack([x[:nc], x[nc:]], axis=1)[bd.seg_copy, bd.seg_coord] - cval[bd.seg_id])))
@@ -915,7 +948,7 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
         if k == "sing":
             s = cuts.cut_source[ci]
             X[s] = np.round(X[s])
-    # re-derive eliminated copies from their (snapped) left copies so seams stay exact
+    seam_gap = resid = 0.0
     if len(cuts.right):
         A = _A[cuts.rot].astype(float)
         tr = np.zeros((len(cuts.right), 2))
@@ -925,35 +958,16 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
                 s = cuts.cut_source[ci]
                 tr[sel] = X[s] - np.einsum("rij,j->ri", A[sel], X[s])
             else:
-                tr[sel] = np.round(y[[tcol[ci], tcol[ci] + 1]])
+                tr[sel] = np.round(y[[lay.tcol[ci], lay.tcol[ci] + 1]])
         X[cuts.right] = np.einsum("rij,rj->ri", A, X[cuts.left]) + tr
         # the eliminated copies on an aligned boundary follow their left copies exactly (seams stay exact); how far
         # they are from their own segment's integer line is reported
         if bd.nseg:
-            onb = elim[bd.seg_copy]
+            onb = lay.elim[bd.seg_copy]
             seam_gap = float(np.max(np.abs(X[bd.seg_copy[onb], bd.seg_coord[onb]]
-                                           - np.round(y[ccol0:])[bd.seg_id[onb]]), initial=0.0))
-        else:
-            seam_gap = 0.0
-    else:
-        seam_gap = 0.0
-    UV = X[corner_copy]
-    d1 = UV[:, 1] - UV[:, 0]
-    d2 = UV[:, 2] - UV[:, 0]
-    signed = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-    flipped = int(np.count_nonzero(signed <= 0))
-    if flipped:
-        warnings.append(f"{flipped} triangles are inverted in the parametrization (the field is hard to follow there)")
-    err = field_angle_error(V, T, UV, Uc, Wc)
-    timings["total"] = time.perf_counter() - t0
-    cut_edges = np.array([[p[i], p[i + 1]] for p in paths for i in range(len(p) - 1)], dtype=np.int64).reshape(-1, 2)
-    log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
-              len(ints), timings["total"])
-    resid = 0.0
-    if len(cuts.right):
+                                           - np.round(y[lay.ccol0:])[bd.seg_id[onb]]), initial=0.0))
         resid = float(np.max(np.abs(X[cuts.right] - np.einsum("rij,rj->ri", A, X[cuts.left]) - tr)))
-    return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, resid, max(gap, seam_gap), corner_copy,
-                           warnings, timings, scale)
+    return X, max(gap, seam_gap), resid
 
 
 def _centering_scale(V, T, UV, target: float, area: np.ndarray, spread: float = 0.25,
@@ -1029,8 +1043,6 @@ def iso_lines(V: np.ndarray, T: np.ndarray, UV: np.ndarray) -> list[np.ndarray]:
     list of (2, 3) float64 arrays
         Segments of the lines ``u = i`` and ``v = j`` inside each triangle.
     """
-    from components.fields.extract import iso_segments
-
     S = iso_segments(V, T, UV)
     return [s for s in S]
 
@@ -1099,16 +1111,19 @@ def parametrize(mesh: Mesh, target_length: float, field: str = "conjugate", alig
 
     Example
     -------
-    >>> res = parametrize((V, F), target_length=1.0)
-    >>> res.mean_angle_error < 10
-    True
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(8, 8, 8.0, 8.0, height=lambda x, y: 0.02 * (x - 4) ** 2 - 0.01 * (y - 4) ** 2)
+    >>> res = parametrize((V, F), target_length=2.0)
+    >>> res.mean_angle_error < 10, res.flipped_triangles
+    (True, 0)
     """
-    target = _check_length(target_length)
-    _check_choice(field, FIELDS, "field")
+    target = check_number(target_length, "target_length", 0, above=True)
+    check_choice(field, "field", FIELDS)
     alignment = check_number(alignment, "alignment", 0)
-    _check_choice(boundary, BOUNDARY_MODES, "boundary")
-    V, F, T, _ = _triangle_mesh(mesh)
-    _check_target_against(V, T, target)
+    check_choice(boundary, "boundary", BOUNDARY_MODES)
+    V, F = check_mesh(mesh)
+    T, _ = triangulate(F)
+    check_target_fits(V, T, target)
     U, W = direction_field(V, T, field=field, alignment=alignment)
     par = seamless_parametrization(V, T, U, W, target, boundary=boundary)
     area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)

@@ -2,7 +2,9 @@
 
 Array-level functions (``quad_planarity(V, F) -> (m,)`` …) are for Python users and the other steps; the
 published components (``planarity(mesh)`` …) validate their input once and return a ``NamedTuple`` of per-element
-values plus summary statistics (min, max, mean, standard deviation, variance).
+values plus summary statistics (min, max, mean, standard deviation, variance). The shared geometry (vector algebra,
+:func:`quad_planarity`, :func:`warping_height` and the least-squares planes) is :mod:`components.core.measures`;
+this module publishes those two measures under their old names.
 
 Conventions
 -----------
@@ -33,9 +35,22 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core import proximity
-from components.core.checks import validate_mesh
+from components.core.checks import check_choice, check_mesh
 from components.core.errors import InputError, MeshError
-from components.core.mesh import bounding_box_diagonal, face_normals, face_sizes, halfedges, triangulate
+from components.core.measures import (  # noqa: F401  (quad_planarity, warping_height re-exported: metric outputs)
+    FaceData,
+    cross,
+    dot,
+    face_data,
+    least_squares_planes,
+    mean_edge_lengths,
+    norm,
+    quad_diagonals,
+    quad_planarity,
+    smallest_eigenvectors,
+    warping_height,
+)
+from components.core.mesh import bounding_box_diagonal, face_sizes, halfedges, triangulate
 from components.core.colors import UNDEFINED_COLOR, colormap, unweld
 from components.core.types import Integers, Mesh, Numbers, Texts
 
@@ -87,114 +102,17 @@ def summary(values) -> Summary:
 
 
 # ----------------------------------------------------------------------------------------------
-# small private geometry helpers
-
-
-def _dot(a, b):
-    return np.einsum("...j,...j->...", a, b)
-
-
-def _cross(a, b):
-    """Row-wise cross product of (..., 3) arrays (cheaper than ``np.cross`` for large arrays)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
-def _norm(a):
-    return np.sqrt(_dot(a, a))
+# angles between vectors and lines (vector algebra, planarity pieces: components.core.measures)
 
 
 def _line_angle(n1, n2):
     """Angle in [0, π/2] between the lines spanned by two vectors (0 when either vanishes)."""
-    return np.arctan2(_norm(_cross(n1, n2)), np.abs(_dot(n1, n2)))
+    return np.arctan2(norm(cross(n1, n2)), np.abs(dot(n1, n2)))
 
 
 def _vector_angle(a, b):
     """Angle in [0, π] between two vectors (robust atan2 form, 0 when either vanishes)."""
-    return np.arctan2(_norm(_cross(a, b)), _dot(a, b))
-
-
-def _smallest_eigvec_sym3(M, fallback):
-    """Unit eigenvector of the smallest eigenvalue of symmetric 3×3 matrices ``M (q, 3, 3)``.
-
-    Closed form (trigonometric solution of the characteristic cubic, then the largest cross product of two rows
-    of ``M - λ I``), ~10× faster than batched ``eigh``. Where the eigenvector is not determined (isotropic or
-    zero matrices) the row of ``fallback (q, 3)`` is used.
-    """
-    q = len(M)
-    out = np.array(fallback, dtype=np.float64, copy=True)
-    if q == 0:
-        return out
-    a, b, c = M[:, 0, 0], M[:, 1, 1], M[:, 2, 2]
-    d, e, f = M[:, 0, 1], M[:, 0, 2], M[:, 1, 2]
-    p1 = d * d + e * e + f * f
-    tr = (a + b + c) / 3.0
-    p2 = (a - tr) ** 2 + (b - tr) ** 2 + (c - tr) ** 2 + 2.0 * p1
-    p = np.sqrt(p2 / 6.0)
-    ok = p > 1e-300
-    ps = np.where(ok, p, 1.0)
-    Ba, Bb, Bc = (a - tr) / ps, (b - tr) / ps, (c - tr) / ps
-    Bd, Be, Bf = d / ps, e / ps, f / ps
-    detB = Ba * (Bb * Bc - Bf * Bf) - Bd * (Bd * Bc - Bf * Be) + Be * (Bd * Bf - Bb * Be)
-    phi = np.arccos(np.clip(detB / 2.0, -1.0, 1.0)) / 3.0
-    lam = tr + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
-    R = M - lam[:, None, None] * np.eye(3)[None]
-    c01 = _cross(R[:, 0], R[:, 1])
-    c02 = _cross(R[:, 0], R[:, 2])
-    c12 = _cross(R[:, 1], R[:, 2])
-    C = np.stack([c01, c02, c12], axis=1)
-    L = _dot(C, C)
-    j = np.argmax(L, axis=1)
-    v = C[np.arange(q), j]
-    nv = np.sqrt(L[np.arange(q), j])
-    good = ok & (nv > 1e-300 * np.maximum(tr, 1e-300))
-    out[good] = v[good] / nv[good, None]
-    return out
-
-
-class _Faces(NamedTuple):
-    """Per-call face data (computed once per call and passed around; never cached between calls)."""
-
-    sizes: np.ndarray  # (m,)
-    P: np.ndarray  # (m, k, 3) corner positions (padding repeats the last corner)
-    valid: np.ndarray  # (m, k) bool, real corners
-    area_vec: np.ndarray  # (m, 3) Newell area vectors
-
-
-def _faces(V, F) -> _Faces:
-    sizes = face_sizes(F)
-    k = F.shape[1]
-    valid = np.arange(k)[None, :] < sizes[:, None]
-    return _Faces(sizes, V[F], valid, face_normals(V, F, unit=False))
-
-
-def _lsq_planes(fd: _Faces, idx):
-    """Least-squares planes of faces ``idx``: centroid ``(q, 3)``, unit normal ``(q, 3)`` oriented like the face,
-    signed corner distances ``(q, k)`` (0 on padding)."""
-    P = fd.P[idx]
-    w = fd.valid[idx].astype(np.float64)
-    s = fd.sizes[idx].astype(np.float64)
-    c = np.einsum("qk,qkj->qj", w, P) / s[:, None]
-    X = (P - c[:, None, :]) * w[..., None]
-    M = np.einsum("qki,qkj->qij", X, X)
-    A = fd.area_vec[idx]
-    nA = _norm(A)
-    fallback = np.divide(A, nA[:, None], out=np.zeros_like(A), where=nA[:, None] > 0)
-    n = _smallest_eigvec_sym3(M, fallback)
-    flip = _dot(n, A) < 0
-    n[flip] *= -1.0
-    d = np.einsum("qkj,qj->qk", X, n) * w
-    return c, n, d
-
-
-def _mean_edge_length(fd: _Faces, idx):
-    P = fd.P[idx]
-    nxt = np.roll(P, -1, axis=1)
-    s = fd.sizes[idx]
-    nxt[np.arange(len(idx)), s - 1] = P[:, 0]
-    L = _norm(nxt - P) * fd.valid[idx]
-    return L.sum(axis=1) / s
+    return np.arctan2(norm(cross(a, b)), dot(a, b))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -230,7 +148,7 @@ def _mesh_arg(mesh, name: str = "mesh", kind: str = "any") -> tuple[np.ndarray, 
 
     Raises
     ------
-    InputError / MeshError
+    MeshError
         Not a ``(V, F)`` pair, NaN coordinates, bad indices, degenerate or non-manifold faces, zero-length edges or
         diagonals — each message starts with ``name``.
     """
@@ -239,10 +157,9 @@ def _mesh_arg(mesh, name: str = "mesh", kind: str = "any") -> tuple[np.ndarray, 
 
 
 def _validated(mesh, name: str = "mesh", kind: str = "any") -> tuple[np.ndarray, np.ndarray, _Topo]:
-    if not isinstance(mesh, (tuple, list)) or len(mesh) not in (2, 3):
-        raise InputError(name, f"expected a mesh (V, F), got {type(mesh).__name__}")
-    # validate_mesh's own manifold test sorts (h, 2) rows, ~10x slower than int64 keys: it is done here instead
-    V, F = validate_mesh(mesh[0], mesh[1], name=name, kind=kind, manifold=False)
+    # the manifold test is done here on the half-edge topology the metrics need anyway: validate_mesh's own
+    # (edge_topology + a sort of directed keys) adds ~0.14 s to the 0.5 s report of 100k quads (same wording)
+    V, F = check_mesh(mesh, name, kind=kind, manifold=False)
     topo = _topology(F, len(V))
     _check_manifold(topo, name)
     _check_geometry(V, F, topo, name)
@@ -250,7 +167,10 @@ def _validated(mesh, name: str = "mesh", kind: str = "any") -> tuple[np.ndarray,
 
 
 def _check_manifold(topo: _Topo, name: str) -> None:
-    """Every edge has at most two faces, and the two half-edges of an interior edge run in opposite directions."""
+    """Every edge has at most two faces, and the two half-edges of an interior edge run in opposite directions.
+
+    The failures are worded as :func:`components.core.checks.validate_mesh` words them.
+    """
     H, E, HE, count = topo.H, topo.E, topo.HE, topo.count
     if np.any(count > 2):
         e = int(np.argmax(count > 2))
@@ -270,7 +190,7 @@ def _check_geometry(V: np.ndarray, F: np.ndarray, topo: _Topo, name: str) -> Non
     """Zero-length edges and zero-length quad diagonals make every ratio meaningless: raise instead of NaN."""
     tol = _TINY * max(bounding_box_diagonal(V), np.finfo(float).tiny)
     E = topo.E
-    L = _norm(V[E[:, 1]] - V[E[:, 0]])
+    L = norm(V[E[:, 1]] - V[E[:, 0]])
     bad = L <= tol
     if bad.any():
         e = int(np.argmax(bad))
@@ -281,8 +201,8 @@ def _check_geometry(V: np.ndarray, F: np.ndarray, topo: _Topo, name: str) -> Non
     q = np.nonzero(sizes == 4)[0]
     if len(q):
         Q = F[q]
-        d1 = _norm(V[Q[:, 2]] - V[Q[:, 0]])
-        d2 = _norm(V[Q[:, 3]] - V[Q[:, 1]])
+        d1 = norm(V[Q[:, 2]] - V[Q[:, 0]])
+        d2 = norm(V[Q[:, 3]] - V[Q[:, 1]])
         bad = (d1 <= tol) | (d2 <= tol)
         if bad.any():
             i = int(q[np.argmax(bad)])
@@ -301,102 +221,7 @@ def _finite(values: np.ndarray, name: str, what: str, element: str = "face", ind
 
 # ----------------------------------------------------------------------------------------------
 # planarity, warping, diagonals, areas
-
-
-def quad_planarity(V, F) -> np.ndarray:
-    """Scale-free planarity of every face: 0 for a planar face.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-        Vertex positions.
-    F : (m, k) int64
-        Padded polygon faces.
-
-    Returns
-    -------
-    (m,) float64
-        Quads: distance between the two diagonal lines divided by the mean diagonal length,
-        ``|(d1 × d2)·(v1 − v0)| / |d1 × d2| / ((|d1| + |d2|) / 2)`` with ``d1 = v2 − v0``, ``d2 = v3 − v1``
-        (libigl's ``quad_planarity``, unsigned). Triangles: 0. n-gons (k ≥ 5): largest distance of a corner to
-        the face's least-squares plane divided by the face's mean edge length. Unitless.
-
-    Notes
-    -----
-    For quads this is exactly ``igl.quad_planarity`` (absolute value); the libigl binding returns it signed.
-
-    Example
-    -------
-    >>> V, Q = quad_grid(2, 2); quad_planarity(V, Q)
-    array([0., 0., 0., 0.])
-    """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    return _planarity_diagonal(V, F, _faces(V, F))
-
-
-def _quad_diagonal_data(V, F, q):
-    Q = F[q]
-    v0, v1, v2, v3 = (V[Q[:, i]] for i in range(4))
-    D1 = v2 - v0
-    D2 = v3 - v1
-    X = _cross(D1, D2)
-    nX = _norm(X)
-    h = np.abs(_dot(X, v1 - v0))
-    h = np.divide(h, nX, out=np.zeros_like(h), where=nX > 0)  # parallel diagonals lie in one plane
-    return h, _norm(D1), _norm(D2)
-
-
-def _planarity_diagonal(V, F, fd):
-    m = len(F)
-    out = np.zeros(m)
-    q = np.nonzero(fd.sizes == 4)[0]
-    if len(q):
-        h, l1, l2 = _quad_diagonal_data(V, F, q)
-        out[q] = h / (0.5 * (l1 + l2))
-    g = np.nonzero(fd.sizes >= 5)[0]
-    if len(g):
-        _, _, d = _lsq_planes(fd, g)
-        out[g] = np.abs(d).max(axis=1) / _mean_edge_length(fd, g)
-    return out
-
-
-def warping_height(V, F) -> np.ndarray:
-    """Warping height of every face in model units: 0 for a planar face.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-        Vertex positions.
-    F : (m, k) int64
-        Padded polygon faces.
-
-    Returns
-    -------
-    (m,) float64
-        Quads: the distance between the two diagonal lines (the height a flat panel must bend by),
-        ``|(d1 × d2)·(v1 − v0)| / |d1 × d2|``. Triangles: 0. n-gons: the largest distance of a corner to the
-        least-squares plane. Model units.
-
-    Notes
-    -----
-    Kangaroo's planarity goal reports this absolute gap; :func:`quad_planarity` is it divided by the mean
-    diagonal length.
-    """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    return _warping(V, F, _faces(V, F))
-
-
-def _warping(V, F, fd):
-    out = np.zeros(len(F))
-    q = np.nonzero(fd.sizes == 4)[0]
-    if len(q):
-        out[q] = _quad_diagonal_data(V, F, q)[0]
-    g = np.nonzero(fd.sizes >= 5)[0]
-    if len(g):
-        out[g] = np.abs(_lsq_planes(fd, g)[2]).max(axis=1)
-    return out
+# (quad_planarity and warping_height: components.core.measures, imported above)
 
 
 def planarity_angle(V, F) -> np.ndarray:
@@ -424,7 +249,7 @@ def planarity_angle(V, F) -> np.ndarray:
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    return _planarity_angle(V, F, _faces(V, F))
+    return _planarity_angle(V, F, face_data(V, F))
 
 
 def _planarity_angle(V, F, fd):
@@ -433,22 +258,22 @@ def _planarity_angle(V, F, fd):
     if len(q):
         Q = F[q]
         a, b, c, d = (V[Q[:, i]] for i in range(4))
-        n_abc = _cross(b - a, c - a)
-        n_acd = _cross(c - a, d - a)
-        n_bcd = _cross(c - b, d - b)
-        n_bda = _cross(d - b, a - b)
+        n_abc = cross(b - a, c - a)
+        n_acd = cross(c - a, d - a)
+        n_bcd = cross(c - b, d - b)
+        n_bda = cross(d - b, a - b)
         out[q] = np.maximum(_line_angle(n_abc, n_acd), _line_angle(n_bcd, n_bda))
     g = np.nonzero(fd.sizes >= 5)[0]
     if len(g):
-        _, n, _ = _lsq_planes(fd, g)
-        P = fd.P[g]
+        _, n, _ = least_squares_planes(fd, g)
+        P = fd.points[g]
         s = fd.sizes[g]
         r = np.arange(len(g))
         prv = np.roll(P, 1, axis=1)
         prv[:, 0] = P[r, s - 1]
         nxt = np.roll(P, -1, axis=1)
         nxt[r, s - 1] = P[:, 0]
-        Nc = _cross(nxt - P, prv - P)
+        Nc = cross(nxt - P, prv - P)
         ang = _line_angle(Nc, n[:, None, :]) * fd.valid[g]
         out[g] = ang.max(axis=1)
     return out
@@ -476,7 +301,7 @@ def diagonal_lengths(V, F) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     q = np.nonzero(face_sizes(F) == 4)[0]
-    _, l1, l2 = _quad_diagonal_data(V, F, q)
+    _, l1, l2 = quad_diagonals(V, F, q)
     return q, l1, l2
 
 
@@ -504,15 +329,15 @@ def polygon_areas(V, F) -> np.ndarray:
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    return _areas(V, F, _faces(V, F))
+    return _areas(V, F, face_data(V, F))
 
 
 def _areas(V, F, fd):
-    out = _norm(fd.area_vec)
+    out = norm(fd.area_vec)
     g = np.nonzero(fd.sizes >= 4)[0]
     if len(g):
-        _, n, _ = _lsq_planes(fd, g)
-        out[g] = np.abs(_dot(fd.area_vec[g], n))
+        _, n, _ = least_squares_planes(fd, g)
+        out[g] = np.abs(dot(fd.area_vec[g], n))
     return out
 
 
@@ -540,7 +365,7 @@ def mesh_edge_lengths(V, F) -> tuple[np.ndarray, np.ndarray]:
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     E = _topology(F, len(V)).E
-    return E, _norm(V[E[:, 1]] - V[E[:, 0]])
+    return E, norm(V[E[:, 1]] - V[E[:, 0]])
 
 
 def interior_angles(V, F) -> tuple[np.ndarray, np.ndarray]:
@@ -562,21 +387,31 @@ def interior_angles(V, F) -> tuple[np.ndarray, np.ndarray]:
         corner turns against the face's Newell normal), so non-convex faces show an angle above π.
     HF : (h,) int64
         Face of every corner.
+
+    Notes
+    -----
+    The unsigned angles are those of :func:`components.core.measures.corner_angles` (same corner order).
+
+    Example
+    -------
+    >>> V = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [1, 1, 0], [1, 2, 0], [0, 2, 0]], dtype=float)
+    >>> ang, HF = interior_angles(V, [[0, 1, 2, 3, 4, 5]]); np.degrees(ang).round(6)  # an L: one reflex corner
+    array([ 90.,  90.,  90., 270.,  90.,  90.])
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     topo = _topology(F, len(V))
-    return _interior_angles(V, _faces(V, F), topo), topo.HF
+    return _interior_angles(V, face_data(V, F), topo), topo.HF
 
 
-def _interior_angles(V, fd: _Faces, topo: _Topo) -> np.ndarray:
+def _interior_angles(V, fd: FaceData, topo: _Topo) -> np.ndarray:
     H, HF, prev = topo.H, topo.HF, topo.prev
     p = V[H[:, 0]]
     e_next = V[H[:, 1]] - p
     e_prev = V[H[prev, 0]] - p
-    X = _cross(e_next, e_prev)
-    ang = np.arctan2(_norm(X), _dot(e_next, e_prev))
-    reflex = _dot(X, fd.area_vec[HF]) < 0
+    X = cross(e_next, e_prev)
+    ang = np.arctan2(norm(X), dot(e_next, e_prev))
+    reflex = dot(X, fd.area_vec[HF]) < 0
     ang[reflex] = 2.0 * np.pi - ang[reflex]
     return ang
 
@@ -652,24 +487,24 @@ def verdict_quad_quality(V, F) -> tuple[np.ndarray, dict[str, np.ndarray]]:
 def _verdict(V, Q) -> dict[str, np.ndarray]:
     P0, P1, P2, P3 = (V[Q[:, i]] for i in range(4))
     L = [P1 - P0, P2 - P1, P3 - P2, P0 - P3]
-    ln = [_norm(x) for x in L]
+    ln = [norm(x) for x in L]
     X1 = L[0] - L[2]
     X2 = L[1] - L[3]
     X12 = P0 - P1 + P2 - P3
-    nX1, nX2 = _norm(X1), _norm(X2)
-    N = [_cross(L[(k - 1) % 4], L[k]) for k in range(4)]
-    nc = _cross(X1, X2)
-    nc = nc / _norm(nc)[:, None]
-    alpha = [_dot(nc, N[k]) for k in range(4)]
+    nX1, nX2 = norm(X1), norm(X2)
+    N = [cross(L[(k - 1) % 4], L[k]) for k in range(4)]
+    nc = cross(X1, X2)
+    nc = nc / norm(nc)[:, None]
+    alpha = [dot(nc, N[k]) for k in range(4)]
     out = {}
     lmax = np.maximum.reduce(ln)
     lmin = np.minimum.reduce(ln)
-    out["aspect_ratio"] = 0.5 * lmax * (ln[0] + ln[1] + ln[2] + ln[3]) / (_norm(N[1]) + _norm(N[3]))
-    out["skew"] = np.abs(_dot(X1, X2)) / (nX1 * nX2)
-    out["taper"] = _norm(X12) / np.minimum(nX1, nX2)
-    n = [N[k] / _norm(N[k])[:, None] for k in range(4)]
-    out["warpage"] = np.minimum(_dot(n[0], n[2]), _dot(n[1], n[3])) ** 3
-    dmax = np.maximum(_norm(P2 - P0), _norm(P3 - P1))
+    out["aspect_ratio"] = 0.5 * lmax * (ln[0] + ln[1] + ln[2] + ln[3]) / (norm(N[1]) + norm(N[3]))
+    out["skew"] = np.abs(dot(X1, X2)) / (nX1 * nX2)
+    out["taper"] = norm(X12) / np.minimum(nX1, nX2)
+    n = [N[k] / norm(N[k])[:, None] for k in range(4)]
+    out["warpage"] = np.minimum(dot(n[0], n[2]), dot(n[1], n[3])) ** 3
+    dmax = np.maximum(norm(P2 - P0), norm(P3 - P1))
     out["stretch"] = np.sqrt(2.0) * lmin / dmax
     ang = np.stack([np.degrees(_vector_angle(-L[(k - 1) % 4], L[k])) for k in range(4)], axis=1)
     out["minimum_angle"] = ang.min(axis=1)
@@ -728,12 +563,12 @@ def conical_criterion_values(V, F) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    fd = _faces(V, F)
+    fd = face_data(V, F)
     topo = _topology(F, len(V))
     return _conical(V, fd, topo, _interior_angles(V, fd, topo))
 
 
-def _conical(V, fd: _Faces, topo: _Topo, ang: np.ndarray):
+def _conical(V, fd: FaceData, topo: _Topo, ang: np.ndarray):
     n = len(V)
     H, HF, E, count = topo.H, topo.HF, topo.E, topo.count
     valence = np.bincount(E.ravel(), minlength=n)
@@ -759,15 +594,15 @@ def _conical(V, fd: _Faces, topo: _Topo, ang: np.ndarray):
     ok &= np.where(ok, rot[np.maximum(c3, 0)] == c0, False)
     verts, c0, c1, c2, c3 = verts[ok], c0[ok], c1[ok], c2[ok], c3[ok]
     crit = np.abs(ang[c0] + ang[c2] - ang[c1] - ang[c3])
-    Nf = fd.area_vec / _norm(fd.area_vec)[:, None]
+    Nf = fd.area_vec / norm(fd.area_vec)[:, None]
     Ns = np.stack([Nf[HF[c]] for c in (c0, c1, c2, c3)], axis=1)  # (c, 4, 3)
     mean = Ns.mean(axis=1)
     X = Ns - mean[:, None, :]
     M = np.einsum("cki,ckj->cij", X, X)
-    mlen = _norm(mean)
+    mlen = norm(mean)
     fallback = np.divide(mean, mlen[:, None], out=np.zeros_like(mean), where=mlen[:, None] > 0)
-    axis = _smallest_eigvec_sym3(M, fallback)
-    axis[_dot(axis, mean) < 0] *= -1.0
+    axis = smallest_eigenvectors(M, fallback)
+    axis[dot(axis, mean) < 0] *= -1.0
     cosang = np.clip(np.einsum("ckj,cj->ck", Ns, axis), -1.0, 1.0)
     phi = np.arccos(cosang)
     dev = phi.max(axis=1) - phi.min(axis=1)
@@ -812,9 +647,7 @@ def _valence(n, E, count):
 
 
 def _reference_index(reference, name: str = "reference") -> proximity.TriangleIndex:
-    if not isinstance(reference, (tuple, list)) or len(reference) not in (2, 3):
-        raise InputError(name, f"expected a mesh (V, F), got {type(reference).__name__}")
-    RV, RF = validate_mesh(reference[0], reference[1], name=name, allow_degenerate=True, manifold=False)
+    RV, RF = check_mesh(reference, name, allow_degenerate=True, manifold=False)
     RT, _ = triangulate(RF)
     if len(RT) == 0:
         raise MeshError(name, "the reference mesh has no triangle or polygon with 3 distinct corners")
@@ -902,15 +735,14 @@ def planarity(mesh: Mesh, measure: str = "diagonal") -> PlanarityResult:
 
     Example
     -------
+    >>> from components.core.mesh import quad_grid
     >>> planarity(quad_grid(4, 4)).max_planarity
     0.0
     """
-    if measure not in _PLANARITY_MEASURES:
-        raise InputError("measure", f"unknown planarity measure {measure!r}; use one of {list(_PLANARITY_MEASURES)}")
+    check_choice(measure, "measure", _PLANARITY_MEASURES)
     V, F = _mesh_arg(mesh)
-    fd = _faces(V, F)
-    fn = {"diagonal": _planarity_diagonal, "angle": _planarity_angle, "warping": _warping}[measure]
-    values = _finite(fn(V, F, fd), "mesh", "planarity")
+    fn = {"diagonal": quad_planarity, "angle": planarity_angle, "warping": warping_height}[measure]
+    values = _finite(fn(V, F), "mesh", "planarity")
     s = summary(values)
     return PlanarityResult(values, s.max, s.mean, s.min, s.std, s.variance)
 
@@ -954,7 +786,7 @@ def warping(mesh: Mesh) -> WarpingResult:
         Malformed, degenerate, non-manifold or NaN ``mesh``.
     """
     V, F = _mesh_arg(mesh)
-    values = _finite(_warping(V, F, _faces(V, F)), "mesh", "warping")
+    values = _finite(warping_height(V, F), "mesh", "warping")
     s = summary(values)
     return WarpingResult(values, s.max, s.mean, s.min, s.std, s.variance)
 
@@ -1054,7 +886,7 @@ def face_areas(mesh: Mesh) -> FaceAreasResult:
         Malformed, degenerate, non-manifold or NaN ``mesh``.
     """
     V, F = _mesh_arg(mesh)
-    values = _finite(_areas(V, F, _faces(V, F)), "mesh", "area")
+    values = _finite(_areas(V, F, face_data(V, F)), "mesh", "area")
     s = summary(values)
     return FaceAreasResult(values, float(values.sum()), s.max, s.mean, s.min, s.std, s.variance)
 
@@ -1151,7 +983,7 @@ def corner_angles(mesh: Mesh) -> CornerAnglesResult:
     turns against the face normal; see :func:`interior_angles`. Panels with a corner angle near 0 are collapsed.
     """
     V, F, topo = _validated(mesh)
-    fd = _faces(V, F)
+    fd = face_data(V, F)
     ang = _finite(_interior_angles(V, fd, topo), "mesh", "corner angle", element="corner")
     amin, amax = _per_face_min_max(ang, fd.sizes)
     s = summary(ang)
@@ -1215,8 +1047,7 @@ def verdict_quality(mesh: Mesh, metric: str = "scaled_jacobian") -> VerdictResul
     C. J. Stimpson, C. D. Ernst, P. Knupp, P. P. Pébay, D. Melander, "The Verdict Geometric Quality Library",
     SAND2007-1751, 2007.
     """
-    if metric not in VERDICT_METRICS:
-        raise InputError("metric", f"unknown Verdict metric {metric!r}; use one of {list(VERDICT_METRICS)}")
+    check_choice(metric, "metric", VERDICT_METRICS)
     V, F = _mesh_arg(mesh)
     q, metrics = verdict_quad_quality(V, F)
     values = _finite(metrics[metric], "mesh", metric, index=q)
@@ -1432,24 +1263,23 @@ def measure_values(V, F, measure: str, reference=None) -> tuple[str, np.ndarray,
         Elements where the measure is defined.
     values : (q,) float64
     """
-    if measure not in MEASURES:
-        raise InputError("measure", f"unknown measure {measure!r}; use one of {list(MEASURES)}")
+    check_choice(measure, "measure", MEASURES)
     element = MEASURES[measure][0]
     m, n = len(F), len(V)
-    fd = _faces(V, F)
     allf = np.arange(m)
     if measure == "planarity":
-        return element, allf, _planarity_diagonal(V, F, fd)
+        return element, allf, quad_planarity(V, F)
     if measure == "planarity_angle":
-        return element, allf, _planarity_angle(V, F, fd)
+        return element, allf, planarity_angle(V, F)
     if measure == "warping":
-        return element, allf, _warping(V, F, fd)
+        return element, allf, warping_height(V, F)
     if measure == "diagonal_ratio":
         q, l1, l2 = diagonal_lengths(V, F)
         return element, q, np.maximum(l1, l2) / np.minimum(l1, l2)
     if measure == "area":
-        return element, allf, _areas(V, F, fd)
+        return element, allf, polygon_areas(V, F)
     if measure in ("min_angle", "max_angle"):
+        fd = face_data(V, F)
         amin, amax = _per_face_min_max(_interior_angles(V, fd, _topology(F, n)), fd.sizes)
         return element, allf, amin if measure == "min_angle" else amax
     if measure.startswith("verdict_"):
@@ -1521,8 +1351,7 @@ def analysis(mesh: Mesh, measure: str = "planarity", reference: Mesh | None = No
     InputError
         Unknown ``measure``, ``"closeness"`` without ``reference``, malformed ``mesh`` or ``reference``.
     """
-    if measure not in MEASURES:
-        raise InputError("measure", f"unknown measure {measure!r}; use one of {list(MEASURES)}")
+    check_choice(measure, "measure", MEASURES)
     V, F = _mesh_arg(mesh)
     element, idx, values = measure_values(V, F, measure, reference)
     values = _finite(np.asarray(values, dtype=np.float64), "mesh", measure, element=element, index=idx)
@@ -1576,8 +1405,13 @@ def metrics_report(V, F, reference=None, name: str = "mesh") -> dict[str, float]
         Malformed, degenerate, non-manifold or NaN mesh.
     """
     V, F, topo = _validated((V, F), name=name)
+    return _report_table(V, F, topo, reference, name)
+
+
+def _report_table(V, F, topo: _Topo, reference, name: str) -> dict[str, float]:
+    """:func:`metrics_report` of a validated mesh and its topology."""
     n, m = len(V), len(F)
-    fd = _faces(V, F)
+    fd = face_data(V, F)
     out: dict[str, float] = {}
     E, count = topo.E, topo.count
     val, boundary, sing = _valence(n, E, count)
@@ -1603,23 +1437,23 @@ def metrics_report(V, F, reference=None, name: str = "mesh") -> dict[str, float]
         out[f"{key}_std"], out[f"{key}_variance"] = s.std, s.variance
 
     q = np.nonzero(fd.sizes == 4)[0]
-    h, l1, l2 = _quad_diagonal_data(V, F, q)
+    h, l1, l2 = quad_diagonals(V, F, q)
     plan = np.zeros(m)
     warp = np.zeros(m)
     plan[q] = h / (0.5 * (l1 + l2))
     warp[q] = h
     g = np.nonzero(fd.sizes >= 5)[0]
     if len(g):
-        _, _, d = _lsq_planes(fd, g)
+        _, _, d = least_squares_planes(fd, g)
         dmax = np.abs(d).max(axis=1)
-        plan[g] = dmax / _mean_edge_length(fd, g)
+        plan[g] = dmax / mean_edge_lengths(fd, g)
         warp[g] = dmax
     add("planarity", plan)
     add("planarity_angle", _planarity_angle(V, F, fd))
     add("warping", warp)
     add("diagonal_ratio", np.maximum(l1, l2) / np.minimum(l1, l2))
     add("area", areas)
-    add("edge_length", _norm(V[E[:, 1]] - V[E[:, 0]]))
+    add("edge_length", norm(V[E[:, 1]] - V[E[:, 0]]))
     add("corner_angle", ang)
     ver = _verdict(V, F[q])
     for k in VERDICT_METRICS:
@@ -1659,7 +1493,6 @@ def report(mesh: Mesh, reference: Mesh | None = None) -> ReportResult:
     MeshError
         Malformed, degenerate, non-manifold or NaN ``mesh`` or ``reference``.
     """
-    if not isinstance(mesh, (tuple, list)) or len(mesh) not in (2, 3):
-        raise InputError("mesh", f"expected a mesh (V, F), got {type(mesh).__name__}")
-    table = metrics_report(mesh[0], mesh[1], reference=reference)
+    V, F, topo = _validated(mesh)
+    table = _report_table(V, F, topo, reference, "mesh")
     return ReportResult(list(table), np.array(list(table.values()), dtype=np.float64))

@@ -30,8 +30,11 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+from scipy.optimize import brentq
+from scipy.sparse import csc_matrix
+from scipy.sparse.linalg import spsolve
 
-from components.core.checks import check_int
+from components.core.checks import check_choice, check_int
 from components.core.errors import InputError
 from components.core.types import NurbsCurve
 
@@ -485,8 +488,7 @@ def sample_curve(curve, count: int = 10, mode: str = "arclength", name: str = "c
     >>> s.points[:, :2].round(12).tolist()
     [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 2.0], [1.0, 3.0]]
     """
-    if mode not in SAMPLING_MODES:
-        raise InputError("sampling", f"unknown mode {mode!r}; valid: {', '.join(SAMPLING_MODES)}")
+    check_choice(mode, "sampling", SAMPLING_MODES)
     c = curve if isinstance(curve, CurveData) else as_curve(curve, name)
     t0, t1 = c.domain
     if mode == "control":
@@ -605,9 +607,6 @@ def _equal_chords_newton(c: CurveData, t_init: np.ndarray, iterations: int = 60)
 
     Starts from equal arc length; returns the parameters (ends included) or None when it does not converge.
     """
-    from scipy.sparse import csc_matrix
-    from scipy.sparse.linalg import spsolve
-
     t = np.array(t_init, dtype=np.float64)
     n = len(t) - 1  # number of chords = number of unknowns (n - 1 inner parameters + chord)
     ch = float(np.mean(np.linalg.norm(np.diff(_eval(c, t), axis=0), axis=1)))
@@ -657,8 +656,6 @@ def _equal_chords_shooting(c: CurveData, count: int, length: float, scan: int = 
     turns sharply), so the chord range is scanned and every sign change is tried, longest chords first,
     until one verifies (a jump is polished by Newton's method from the marched points).
     """
-    from scipy.optimize import brentq
-
     t0, t1 = c.domain
     T, P = _dense(c)
     steps = count - 1

@@ -1,12 +1,12 @@
 """Surfaces built from curves, and NURBS surfaces tessellated into triangle meshes.
 
-* **Translation surfaces** (:func:`translation_surface`): a generatrix curve translated along a directrix curve.
+* **Translation surfaces** (:func:`translation`): a generatrix curve translated along a directrix curve.
   The net ``P(i, j) = g_i + d_j - d_0`` has faces spanned by two pairs of parallel edges (parallelograms), so
   every face is planar by construction.
-* **Scale-translation surfaces** (:func:`scale_translation_surface`): after each translation step the section is
+* **Scale-translation surfaces** (:func:`scale_translation`): after each translation step the section is
   scaled about a centre that travels along the directrix. Every face keeps two parallel edges (a trapezoid),
   so it is still planar.
-* **Presets** (:func:`paraboloid_surface`): the architecture classics, elliptic paraboloid (parabola along
+* **Presets** (:func:`paraboloid`): the architecture classics, elliptic paraboloid (parabola along
   parabola) and hyperbolic paraboloid (parabola along an opposite parabola).
 * **NURBS surface → triangle mesh** (:func:`surface_mesh`): tensor-product evaluation on a parameter grid.
 
@@ -25,8 +25,10 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from components.surfaces.curves import (
+    SAMPLING_MODES,
     CurveSamples,
     as_curve,
     basis_functions,
@@ -34,8 +36,9 @@ from components.surfaces.curves import (
     full_knots,
     sample_curve,
 )
-from components.core.checks import check_int
+from components.core.checks import check_choice, check_int, check_number, check_points
 from components.core.errors import InputError
+from components.core.measures import quad_planarity
 from components.core.mesh import face_normals
 from components.core.types import Curve, Mesh, NurbsCurve, Numbers, Point, Points, Surface
 
@@ -75,18 +78,6 @@ def grid_quads(nu: int, nv: int, closed_u: bool = False, closed_v: bool = False)
     J1 = (J + 1) % nv
     Q = np.stack([J * nu + I, J * nu + I1, J1 * nu + I1, J1 * nu + I], axis=-1).reshape(-1, 4)
     return Q.astype(np.int64)
-
-
-def _quad_planarity(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """Scale-free planarity: distance between the diagonals / mean diagonal length (0 for a planar quad)."""
-    a, b, c, d = (V[Q[:, k]] for k in range(4))
-    d1, d2 = c - a, d - b
-    n = np.cross(d1, d2)
-    nn = np.linalg.norm(n, axis=1)
-    dist = np.abs(np.einsum("ij,ij->i", b - a, n))
-    dist = np.divide(dist, nn, out=np.zeros_like(dist), where=nn > 0)
-    mean_diag = 0.5 * (np.linalg.norm(d1, axis=1) + np.linalg.norm(d2, axis=1))
-    return np.divide(dist, mean_diag, out=np.zeros_like(dist), where=mean_diag > 0)
 
 
 def _check_faces(V: np.ndarray, Q: np.ndarray, nu: int, name: str) -> list[str]:
@@ -143,14 +134,13 @@ def translation_net(
     >>> V.shape, Q.tolist()
     ((6, 3), [[0, 1, 4, 3], [1, 2, 5, 4]])
     """
+    translate = check_choice(translate, "translate", TRANSLATE_MODES)
     G = np.asarray(G, dtype=np.float64)
     D = np.asarray(D, dtype=np.float64)
     if translate == "generatrix":
         V = G[None, :, :] + (D - D[0])[:, None, :]
-    elif translate == "directrix":
-        V = (G - G[0])[None, :, :] + D[:, None, :]
     else:
-        raise InputError("translate", f"unknown mode {translate!r}; valid: {', '.join(TRANSLATE_MODES)}")
+        V = (G - G[0])[None, :, :] + D[:, None, :]
     return V.reshape(-1, 3), grid_quads(len(G), len(D), closed_u, closed_v)
 
 
@@ -197,7 +187,7 @@ def scale_translation_net(
 # published components: translation and scale-translation surfaces
 
 
-class TranslationSurfaceResult(NamedTuple):
+class TranslationResult(NamedTuple):
     mesh: Mesh
     face_count: int
     max_planarity: float
@@ -212,12 +202,7 @@ def _sample(curve, count: int, sampling: str, name: str, equal: bool) -> CurveSa
     return sample_curve(curve, count, sampling, name=name)
 
 
-def _check_mode(value, valid, name):
-    if value not in valid:
-        raise InputError(name, f"unknown value {value!r}; valid: {', '.join(valid)}")
-
-
-def translation_surface(
+def translation(
     generatrix: Curve,
     directrix: Curve,
     count_u: int = 10,
@@ -225,7 +210,7 @@ def translation_surface(
     sampling: str = "arclength",
     translate: str = "generatrix",
     equal_steps: bool = False,
-) -> TranslationSurfaceResult:
+) -> TranslationResult:
     """Planar-quad mesh of a translation surface: a generatrix curve translated along a directrix curve.
 
     Parameters
@@ -279,12 +264,12 @@ def translation_surface(
     -------
     >>> g = np.array([[0., 0, 0], [1, 0, 1], [2, 0, 0]])
     >>> d = np.array([[0., 0, 0], [0, 1, 0.5], [0, 2, 0]])
-    >>> r = translation_surface(g, d, count_u=4, count_v=4)
+    >>> r = translation(g, d, count_u=4, count_v=4)
     >>> r.face_count, r.max_planarity < 1e-12
     (16, True)
     """
-    _check_mode(sampling, ("count", "arclength", "control"), "sampling")
-    _check_mode(translate, TRANSLATE_MODES, "translate")
+    check_choice(sampling, "sampling", SAMPLING_MODES)
+    check_choice(translate, "translate", TRANSLATE_MODES)
     cu = check_int(count_u, "count_u", 1)
     cv = check_int(count_v, "count_v", 1)
     g = as_curve(generatrix, "generatrix")
@@ -293,12 +278,12 @@ def translation_surface(
     sd = _sample(d, cv, sampling, "directrix", equal_steps and translate == "generatrix")
     V, Q = translation_net(sg.points, sd.points, sg.closed, sd.closed, translate)
     warnings = _check_faces(V, Q, len(sg.points), "directrix")
-    plan = _quad_planarity(V, Q)
+    plan = quad_planarity(V, Q)
     log.debug("translation surface: %d vertices, %d faces, max planarity %.3g", len(V), len(Q), plan.max())
-    return TranslationSurfaceResult((V, Q), int(len(Q)), float(plan.max()), sg.points, sd.points, warnings)
+    return TranslationResult((V, Q), int(len(Q)), float(plan.max()), sg.points, sd.points, warnings)
 
 
-class ScaleTranslationSurfaceResult(NamedTuple):
+class ScaleTranslationResult(NamedTuple):
     mesh: Mesh
     face_count: int
     max_planarity: float
@@ -320,7 +305,7 @@ def _positive_numbers(value, name: str) -> np.ndarray:
     return a
 
 
-def scale_translation_surface(
+def scale_translation(
     generatrix: Curve,
     directrix: Curve,
     scale_factors: Numbers | None = None,
@@ -329,7 +314,7 @@ def scale_translation_surface(
     count_u: int = 10,
     count_v: int = 10,
     sampling: str = "arclength",
-) -> ScaleTranslationSurfaceResult:
+) -> ScaleTranslationResult:
     """Planar-quad mesh of a scale-translation surface: a section translated along a directrix and scaled.
 
     Parameters
@@ -384,19 +369,14 @@ def scale_translation_surface(
     -------
     >>> g = np.array([[-2., 0, 0], [0, 0, 1], [2, 0, 0]])
     >>> d = np.array([[0., 0, 0], [0, 5, 0]])
-    >>> r = scale_translation_surface(g, d, scale=0.9, count_u=4, count_v=5)
+    >>> r = scale_translation(g, d, scale=0.9, count_u=4, count_v=5)
     >>> r.face_count, bool(r.max_planarity < 1e-12), round(float(r.scales[-1]), 5)
     (20, True, 0.59049)
     """
-    _check_mode(sampling, ("count", "arclength", "control"), "sampling")
+    check_choice(sampling, "sampling", SAMPLING_MODES)
     cu = check_int(count_u, "count_u", 1)
     cv = check_int(count_v, "count_v", 1)
-    try:
-        scale = float(scale)
-    except (TypeError, ValueError):
-        raise InputError("scale", f"must be a number, got {scale!r}") from None
-    if not np.isfinite(scale) or scale <= 0:
-        raise InputError("scale", f"must be a positive number, got {scale}")
+    scale = check_number(scale, "scale", 0, above=True)
     g = as_curve(generatrix, "generatrix")
     d = as_curve(directrix, "directrix")
     sg = sample_curve(g, cu, sampling, name="generatrix")
@@ -419,19 +399,17 @@ def scale_translation_surface(
     if centre is None:
         c0 = sg.points.mean(axis=0)
     else:
-        try:
-            c0 = np.asarray(centre, dtype=np.float64).ravel()
-        except (TypeError, ValueError):
-            raise InputError("centre", f"must be a point, got {centre!r}") from None
-        if c0.shape != (3,) or not np.all(np.isfinite(c0)):
-            raise InputError("centre", f"must be a finite 3D point, got {c0.tolist()}")
+        c0 = check_points(centre, "centre", allow_empty=False)
+        if len(c0) != 1:
+            raise InputError("centre", f"must be one point, got {len(c0)}")
+        c0 = c0[0]
     V, Q, C = scale_translation_net(sg.points, D, S, c0, sg.closed)
     warnings += _check_faces(V, Q, len(sg.points), "directrix")
-    plan = _quad_planarity(V, Q)
-    return ScaleTranslationSurfaceResult((V, Q), int(len(Q)), float(plan.max()), S, C, warnings)
+    plan = quad_planarity(V, Q)
+    return ScaleTranslationResult((V, Q), int(len(Q)), float(plan.max()), S, C, warnings)
 
 
-class ParaboloidSurfaceResult(NamedTuple):
+class ParaboloidResult(NamedTuple):
     mesh: Mesh
     face_count: int
     max_planarity: float
@@ -439,27 +417,7 @@ class ParaboloidSurfaceResult(NamedTuple):
     directrix: Curve
 
 
-def _positive(value, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x) or x <= 0:
-        raise InputError(name, f"must be a positive number, got {x}")
-    return x
-
-
-def _finite(value, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not np.isfinite(x):
-        raise InputError(name, f"must be finite, got {x}")
-    return x
-
-
-def paraboloid_surface(
+def paraboloid(
     kind: str = "elliptic",
     span_u: float = 30.0,
     span_v: float = 20.0,
@@ -467,7 +425,7 @@ def paraboloid_surface(
     rise_v: float = 3.0,
     count_u: int = 12,
     count_v: int = 8,
-) -> ParaboloidSurfaceResult:
+) -> ParaboloidResult:
     """Preset translation surface: elliptic or hyperbolic paraboloid (parabola along a parabola).
 
     Parameters
@@ -516,15 +474,15 @@ def paraboloid_surface(
 
     Example
     -------
-    >>> r = paraboloid_surface("hyperbolic", 20.0, 10.0, 3.0, 2.0, 6, 4)
+    >>> r = paraboloid("hyperbolic", 20.0, 10.0, 3.0, 2.0, 6, 4)
     >>> r.face_count, bool(r.max_planarity < 1e-12)
     (24, True)
     """
-    _check_mode(kind, PARABOLOID_KINDS, "kind")
-    a = _positive(span_u, "span_u")
-    b = _positive(span_v, "span_v")
-    hu = _finite(rise_u, "rise_u")
-    hv = _finite(rise_v, "rise_v")
+    check_choice(kind, "kind", PARABOLOID_KINDS)
+    a = check_number(span_u, "span_u", 0, above=True)
+    b = check_number(span_v, "span_v", 0, above=True)
+    hu = check_number(rise_u, "rise_u")
+    hv = check_number(rise_v, "rise_v")
     cu = check_int(count_u, "count_u", 1)
     cv = check_int(count_v, "count_v", 1)
     sign = 1.0 if kind == "elliptic" else -1.0
@@ -536,8 +494,8 @@ def paraboloid_surface(
         2, np.array([[-a / 2, -b / 2, 0.0], [-a / 2, 0.0, 2 * sign * hv], [-a / 2, b / 2, 0.0]]), np.ones(3),
         knots.copy(),
     )
-    r = translation_surface(G, D, cu, cv, sampling="count")
-    return ParaboloidSurfaceResult(r.mesh, r.face_count, r.max_planarity, G, D)
+    r = translation(G, D, cu, cv, sampling="count")
+    return ParaboloidResult(r.mesh, r.face_count, r.max_planarity, G, D)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -658,8 +616,6 @@ _MAX_GRID_VERTICES = 4_000_000
 
 def _weld(V: np.ndarray, tol: float) -> np.ndarray:
     """Map every point to the lowest-index point of its cluster of coincident points (within ``tol``)."""
-    from scipy.spatial import cKDTree
-
     n = len(V)
     parent = np.arange(n)
     pairs = cKDTree(V).query_pairs(tol, output_type="ndarray")
@@ -734,12 +690,7 @@ def surface_mesh(
     ((9, 3), (8, 3))
     """
     s = as_surface(surface, "surface")
-    try:
-        h = float(edge_length)
-    except (TypeError, ValueError):
-        raise InputError("edge_length", f"must be a number, got {edge_length!r}") from None
-    if not np.isfinite(h) or h < 0:
-        raise InputError("edge_length", f"must be zero (use the counts) or positive, got {h}")
+    h = check_number(edge_length, "edge_length", 0)
     warnings: list[str] = []
     if h > 0:
         nu_c, nv_c = s.Pw.shape[:2]

@@ -13,7 +13,7 @@ canopy     three bumps and a dip over a lobed boundary, ≈ 38 × 38      mixed,
 =========  ==========================================================  =========================
 
 :func:`sample_surface_function` returns the exact surface (a :class:`SampleSurface`: height and its derivatives,
-normals, curvatures, closest point / distance, boundary); :func:`sample_surface` (a published component) and
+normals, curvatures, closest point / distance, boundary); :func:`sample` (a published component) and
 :func:`sample_mesh` return a triangle mesh at a chosen resolution: boundary sampled at equal 3D arc length,
 interior from a hexagonal lattice (Delaunay), then tangential relaxation on the exact surface. The meshes are
 deterministic, have one boundary loop, no degenerate triangles and roughly uniform edges: good inputs for the
@@ -25,8 +25,11 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.spatial import Delaunay, cKDTree
 
-from components.core.errors import InputError, MeshError
+from components.core.checks import check_choice, check_int
+from components.core.errors import MeshError
 from components.core.mesh import boundary_loops, edge_topology, points_in_polygons
 from components.core.types import Curve, Mesh, Numbers, Vectors
 
@@ -283,7 +286,7 @@ def sample_surface_function(name: str = "dome") -> SampleSurface:
     Raises
     ------
     InputError
-        Unknown name (the message lists the valid ones).
+        Unknown name: ``"name: must be one of 'dome', 'saddle', 'wave', 'canopy', got …"``.
 
     Example
     -------
@@ -291,9 +294,7 @@ def sample_surface_function(name: str = "dome") -> SampleSurface:
     >>> bool(s.gaussian_curvature(0.0, 0.0) < 0)
     True
     """
-    if name not in _SAMPLES:
-        raise InputError("name", f"unknown sample surface {name!r}; valid: {', '.join(SAMPLE_NAMES)}")
-    return _SAMPLES[name]()
+    return _SAMPLES[check_choice(name, "name", SAMPLE_NAMES)]()
 
 
 # ----------------------------------------------------------------------------------------------
@@ -331,8 +332,6 @@ def _signed_area2(XY: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 def _relax(s: SampleSurface, XY: np.ndarray, T: np.ndarray, fixed: np.ndarray, iterations: int) -> np.ndarray:
     """Tangential uniform-Laplacian relaxation on the exact surface, boundary fixed, no plan flips."""
-    from scipy.sparse import coo_matrix
-
     n = len(XY)
     E = edge_topology(T).E
     A = coo_matrix((np.ones(2 * len(E)), (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])), shape=(n, n)).tocsr()
@@ -356,7 +355,7 @@ def _relax(s: SampleSurface, XY: np.ndarray, T: np.ndarray, fixed: np.ndarray, i
 
 
 def sample_mesh(name: str = "dome", resolution: int = 32) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Triangle mesh of a sample surface (array-level form of :func:`sample_surface`).
+    """Triangle mesh of a sample surface (array-level form of :func:`sample`).
 
     Parameters
     ----------
@@ -373,15 +372,20 @@ def sample_mesh(name: str = "dome", resolution: int = 32) -> tuple[np.ndarray, n
         Triangles, counter-clockwise seen from above (normals up).
     B : (b,) int64
         The boundary loop's vertex indices, in order (counter-clockwise from above).
-    """
-    from scipy.spatial import Delaunay, cKDTree
 
+    Raises
+    ------
+    InputError
+        Unknown name or a resolution that is not a whole number from 4 to 512.
+
+    Example
+    -------
+    >>> V, T, B = sample_mesh("dome", 8)
+    >>> T.shape[1], bool(len(B) >= 12)
+    (3, True)
+    """
     s = sample_surface_function(name)
-    if isinstance(resolution, bool) or not float(resolution).is_integer():
-        raise InputError("resolution", f"must be an integer, got {resolution!r}")
-    resolution = int(resolution)
-    if not 4 <= resolution <= 512:
-        raise InputError("resolution", f"must be between 4 and 512, got {resolution}")
+    resolution = check_int(resolution, "resolution", 4, 512)
     th = np.linspace(0, 2 * np.pi, 4097)[:-1]
     R = s.boundary_radius(th)
     bxy = np.column_stack([R * np.cos(th), R * np.sin(th)])
@@ -432,14 +436,14 @@ def sample_mesh(name: str = "dome", resolution: int = 32) -> tuple[np.ndarray, n
     return V, T, np.arange(nb, dtype=np.int64)
 
 
-class SampleSurfaceResult(NamedTuple):
+class SampleResult(NamedTuple):
     mesh: Mesh
     boundary: Curve
     gaussian_curvature: Numbers
     normals: Vectors
 
 
-def sample_surface(name: str = "dome", resolution: int = 32) -> SampleSurfaceResult:
+def sample(name: str = "dome", resolution: int = 32) -> SampleResult:
     """A sample free-form surface as a triangle mesh: dome, saddle, wave or canopy.
 
     Parameters
@@ -477,7 +481,7 @@ def sample_surface(name: str = "dome", resolution: int = 32) -> SampleSurfaceRes
 
     Example
     -------
-    >>> r = sample_surface("saddle", 12)
+    >>> r = sample("saddle", 12)
     >>> V, T = r.mesh
     >>> bool((r.gaussian_curvature < 0).all()), T.shape[1]
     (True, 3)
@@ -486,4 +490,4 @@ def sample_surface(name: str = "dome", resolution: int = 32) -> SampleSurfaceRes
     s = sample_surface_function(name)
     K = s.gaussian_curvature(V[:, 0], V[:, 1])
     N = s.normal(V[:, 0], V[:, 1])
-    return SampleSurfaceResult((V, T), V[np.append(B, B[0])], K, N)
+    return SampleResult((V, T), V[np.append(B, B[0])], K, N)

@@ -149,8 +149,12 @@ def test_lscm_bad_inputs():
         lscm(V, T, pinned=[0, 10_000])
     with pytest.raises(InputError, match="pinned_uv"):
         lscm(V, T, pinned=[0, 1], pinned_uv=[[0, 0]])
-    with pytest.raises(InputError, match="method"):
+    with pytest.raises(InputError, match="^method: must be one of 'pinned', 'spectral', got 'magic'$"):
         lscm(V, T, method="magic")
+    with pytest.raises(MeshError, match="^mesh: triangles must have shape \\(t, 3\\)"):
+        lscm(V, np.c_[T, T[:, :1]])
+    with pytest.raises(MeshError, match="^mesh: vertex 0 has a NaN"):
+        lscm(np.r_[[[np.nan] * 3], V[1:]], T)
     two = np.r_[V, V + [10.0, 0, 0]]
     with pytest.raises(MeshError, match="2 connected components"):
         lscm(two, np.r_[T, T + len(V)])
@@ -214,9 +218,9 @@ def test_disk_map_bad_inputs():
     with pytest.raises(MeshError, match="2 boundary loops.*LSCM"):
         disk_map(V, triangulate(F)[0])
     V, T = _planar_patch()
-    with pytest.raises(InputError, match="shape"):
+    with pytest.raises(InputError, match="^shape: must be one of 'disk', 'square', got 'triangle'$"):
         disk_map(V, T, shape="triangle")
-    with pytest.raises(InputError, match="weights"):
+    with pytest.raises(InputError, match="^weights: must be one of 'auto', 'cotan', 'mean_value', got 'uniformish'$"):
         disk_map(V, T, weights="uniformish")
 
 
@@ -270,7 +274,9 @@ def test_conformal_map_component_methods(hypar_grid, method):
 def test_conformal_map_component_errors():
     with pytest.raises(MeshError, match="mesh: .*closed"):
         conformal_map(_octahedron())
-    with pytest.raises(InputError, match="method"):
+    with pytest.raises(InputError, match="^method: must be one of 'lscm', 'spectral', 'disk', 'square', got 'bff'$"):
         conformal_map(quad_grid(2, 2), method="bff")
     with pytest.raises(MeshError, match="mesh"):
         conformal_map((np.zeros((3, 3)), np.array([[0, 1, 5]])))
+    with pytest.raises(MeshError, match="^mesh: must be a \\(V, F\\) pair"):
+        conformal_map(np.zeros((3, 3)))

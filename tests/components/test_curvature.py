@@ -220,11 +220,16 @@ def test_bad_inputs(nonmanifold_fan, hypar_grid):
     with pytest.raises(MeshError, match="^mesh: .*non-manifold"):
         principal_curvature(nonmanifold_fan)
     V, F = hypar_grid
-    for bad in (0, -1, 7, 2.5, True):
-        with pytest.raises(InputError, match="^radius: "):
+    for bad in (0, -1, 7):
+        with pytest.raises(InputError, match=f"^radius: must be between 1 and 6, got {bad}$"):
             principal_curvature((V, F), radius=bad)
-    with pytest.raises(InputError, match="^radius: "):
+    for bad in (2.5, True):
+        with pytest.raises(InputError, match=f"^radius: must be a whole number, got {bad}$"):
+            principal_curvature((V, F), radius=bad)
+    with pytest.raises(InputError, match="^radius: must be 1 or more, got 0$"):
         vertex_principal_curvature(V, triangulate(F)[0], radius=0)
+    with pytest.raises(MeshError, match="^mesh: must be a \\(V, F\\) pair"):
+        principal_curvature(V)
     Vd = V.copy()
     Vd[F[0, 1]] = Vd[F[0, 0]]
     Vd[F[0, 2]] = Vd[F[0, 0]]
@@ -234,5 +239,7 @@ def test_bad_inputs(nonmanifold_fan, hypar_grid):
     Vn[3, 1] = np.nan
     with pytest.raises(MeshError, match="^mesh: .*NaN"):
         principal_curvature((Vn, F))
-    with pytest.raises(InputError, match="^method: "):
+    with pytest.raises(InputError, match="^method: must be one of 'fit', 'discrete', got 'angle'$"):
         gaussian_curvature(V, triangulate(F)[0], method="angle")
+    with pytest.raises(InputError, match="^method: must be one of 'fit', 'discrete', got 'angle'$"):
+        mean_curvature(V, triangulate(F)[0], method="angle")

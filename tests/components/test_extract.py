@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.fields.extract import extract_quads, iso_segments, quad_mesh_from_parametrization, snap_boundary
+from components.fields.candidate import extract_quads
+from components.fields.extract import iso_segments, quad_mesh_from_parametrization, snap_boundary
 from components.core.checks import validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import edge_topology, face_normals, face_sizes

@@ -7,13 +7,13 @@ import pytest
 from components.fields.field import (
     comb_field,
     conjugacy_error,
-    conjugate_direction_field,
     conjugate_field,
+    conjugate_frame_field,
     field_curvature,
     field_matching,
     field_singularities,
-    smooth_direction_field,
     smooth_field,
+    smooth_frame_field,
 )
 from components.core.errors import InputError, MeshError
 from components.core.mesh import read_mesh, triangulate
@@ -98,7 +98,7 @@ def _normals(V, T):
 
 def test_planar_square_field_follows_the_boundary_exactly():
     V, T = _grid_triangles(12, 9, 3.0, 2.0, jitter=0.2)
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     assert _unit_rows(fld.U) and _unit_rows(fld.W)
     # every direction is one of ±x, ±y: the boundary's cross is constant and satisfies every term exactly
     for X in (fld.U, fld.W):
@@ -114,7 +114,7 @@ def test_planar_square_field_follows_the_boundary_exactly():
 def test_field_is_tangent_unit_and_orthogonal_on_samples():
     for name in ("dome", "saddle"):
         V, T, _ = sample_mesh(name, 24)
-        fld = smooth_field(V, T)
+        fld = smooth_frame_field(V, T)
         N = _normals(V, T)
         assert _unit_rows(fld.U) and _unit_rows(fld.W)
         assert np.abs(np.einsum("ij,ij->i", fld.U, N)).max() < 1e-12
@@ -126,7 +126,7 @@ def test_field_is_tangent_unit_and_orthogonal_on_samples():
 
 def test_sphere_indices_sum_to_two():
     V, T = _sphere(3)
-    fld = smooth_field(V, T)  # umbilic everywhere: the smoothest cross field
+    fld = smooth_frame_field(V, T)  # umbilic everywhere: the smoothest cross field
     assert fld.singularity_index.sum() == pytest.approx(2.0)
     assert len(fld.singularities) == 8  # the smoothest cross field on a round sphere: 8 × +1/4
     assert np.all(fld.singularity_index == 0.25)
@@ -134,19 +134,19 @@ def test_sphere_indices_sum_to_two():
 
 def test_torus_principal_field_has_no_singularity():
     V, T = _torus()
-    fld = smooth_field(V, T, alignment=1.0)
+    fld = smooth_frame_field(V, T, alignment=1.0)
     assert len(fld.singularities) == 0
     # aligned with the parallels / meridians
     assert np.degrees(np.median(fld.alignment_error)) < 1.0
     # a rotated frame still sums to the Euler characteristic 0
-    rot = smooth_field(V, T, alignment=0.0)
+    rot = smooth_frame_field(V, T, alignment=0.0)
     assert rot.singularity_index.sum() == pytest.approx(0.0)
 
 
 def test_singularities_agree_with_libigl():
     igl = pytest.importorskip("igl")
     V, T, _ = sample_mesh("canopy", 40)
-    fld = smooth_field(V, T, alignment=1.0)
+    fld = smooth_frame_field(V, T, alignment=1.0)
     is_sing, index = igl.find_cross_field_singularities(V, T, fld.U, fld.W, False)
     ours = set(fld.singularities.tolist())
     theirs = set(np.nonzero(is_sing)[0].tolist())
@@ -166,7 +166,7 @@ def test_alignment_trades_smoothness_for_accuracy():
     cv = field_curvature(V, T)
     errs, counts = [], []
     for lam in (0.01, 0.1, 1.0):
-        fld = smooth_field(V, T, alignment=lam, curvature=cv)
+        fld = smooth_frame_field(V, T, alignment=lam, curvature=cv)
         sel = fld.anisotropy > 0.5
         errs.append(float(np.degrees(fld.alignment_error[sel].mean())))
         counts.append(len(fld.singularities))
@@ -178,12 +178,12 @@ def test_alignment_trades_smoothness_for_accuracy():
 @pytest.mark.parametrize("name", ["dome", "saddle", "wave", "canopy"])
 def test_samples_few_singularities_and_aligned(name):
     V, T, _ = sample_mesh(name, 40)
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     assert len(fld.singularities) <= 20
     sel = fld.anisotropy > 0.5
     if sel.any():
         assert np.degrees(fld.alignment_error[sel].mean()) < 15.0
-    strong = smooth_field(V, T, alignment=1.0)
+    strong = smooth_frame_field(V, T, alignment=1.0)
     if sel.any():
         assert np.degrees(strong.alignment_error[sel].mean()) < 6.0
 
@@ -191,7 +191,7 @@ def test_samples_few_singularities_and_aligned(name):
 @pytest.mark.parametrize("name,bound", [("inspired_mesh.obj", 12), ("lilium.obj", 24)])
 def test_real_meshes(name, bound):
     V, T = _libigl(name)
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     assert len(fld.singularities) <= bound
     sel = fld.anisotropy > 0.5
     assert np.degrees(fld.alignment_error[sel].mean()) < 15.0
@@ -204,14 +204,14 @@ def test_hard_and_soft_constraints():
     faces = rng.choice(len(T), 6, replace=False)
     N = _normals(V, T)[faces]
     d = np.cross(N, rng.standard_normal((6, 3)))
-    fld = smooth_field(V, T, constraints=(faces, d), align_boundary=False)
+    fld = smooth_frame_field(V, T, constraints=(faces, d), align_boundary=False)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
     # the constrained direction is one of ±U, ±W exactly
     cos = np.maximum(np.abs(np.einsum("ij,ij->i", fld.U[faces], d)), np.abs(np.einsum("ij,ij->i", fld.W[faces], d)))
     assert np.allclose(cos, 1.0, atol=1e-9)
 
     def closeness(weight):
-        soft = smooth_field(V, T, constraints=(faces, d), constraint_weight=weight, align_boundary=False)
+        soft = smooth_frame_field(V, T, constraints=(faces, d), constraint_weight=weight, align_boundary=False)
         return np.maximum(np.abs(np.einsum("ij,ij->i", soft.U[faces], d)),
                           np.abs(np.einsum("ij,ij->i", soft.W[faces], d)))
 
@@ -225,7 +225,7 @@ def test_two_direction_constraints_give_a_non_orthogonal_polyvector():
     faces = np.array([0, 55, 120])
     a = np.radians(60.0)
     dirs = np.repeat(np.array([[[1.0, 0, 0], [np.cos(a), np.sin(a), 0]]]), 3, axis=0)
-    fld = smooth_field(V, T, constraints=(faces, dirs), align_boundary=False)
+    fld = smooth_frame_field(V, T, constraints=(faces, dirs), align_boundary=False)
     ang = np.degrees(np.arccos(np.abs(np.einsum("ij,ij->i", fld.U, fld.W))))
     assert np.allclose(ang[faces], 60.0, atol=1e-6)
     assert np.allclose(ang, 60.0, atol=1e-6)  # a constant PolyVector satisfies all constraints on a plane
@@ -233,7 +233,7 @@ def test_two_direction_constraints_give_a_non_orthogonal_polyvector():
 
 def test_field_with_hole():
     V, T = _annulus()
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     assert len(fld.singularities) <= 8
     from components.core.mesh import boundary_vertex_mask
 
@@ -242,7 +242,7 @@ def test_field_with_hole():
 
 def test_comb_field_is_idempotent_on_the_set():
     V, T, _ = sample_mesh("canopy", 24)
-    fld = smooth_field(V, T, alignment=1.0)
+    fld = smooth_frame_field(V, T, alignment=1.0)
     rng = np.random.default_rng(0)
     # scramble the labels: swap U/W and flip signs randomly; combing restores the same 4-fold sets
     s = rng.integers(0, 2, len(T)).astype(bool)
@@ -266,9 +266,9 @@ def test_comb_field_is_idempotent_on_the_set():
 def test_conjugate_field_is_conjugate_and_smooth(name):
     V, T, _ = sample_mesh(name, 40)
     cv = field_curvature(V, T)
-    s = smooth_field(V, T, curvature=cv)
+    s = smooth_frame_field(V, T, curvature=cv)
     for release in (None, np.radians(20.0)):
-        c = conjugate_field(V, T, s.U, s.W, curvature=cv, release_angle=release)
+        c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv, release_angle=release)
         assert _unit_rows(c.U) and _unit_rows(c.W)
         kept = ~c.released
         # every face not released is exactly conjugate; released faces are few and keep a smoothed pair
@@ -288,8 +288,8 @@ def test_conjugate_field_is_conjugate_and_smooth(name):
 def test_conjugate_field_real_meshes(name):
     V, T = _libigl(name)
     cv = field_curvature(V, T)
-    s = smooth_field(V, T, curvature=cv)
-    c = conjugate_field(V, T, s.U, s.W, curvature=cv)
+    s = smooth_frame_field(V, T, curvature=cv)
+    c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv)
     assert c.conjugacy_error[~c.released].max() < 1e-9 < s.conjugacy_error.mean()
     assert np.mean(c.released) < 0.1
     assert len(c.singularities) <= 25
@@ -299,8 +299,8 @@ def test_conjugate_field_of_principal_directions_is_a_fixed_point():
     # a torus: principal directions are conjugate and smooth, so the optimization keeps them
     V, T = _torus()
     cv = field_curvature(V, T)
-    s = smooth_field(V, T, alignment=1.0, curvature=cv)
-    c = conjugate_field(V, T, s.U, s.W, curvature=cv)
+    s = smooth_frame_field(V, T, alignment=1.0, curvature=cv)
+    c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv)
     assert len(c.singularities) == 0
     assert np.degrees(np.median(c.alignment_error)) < 1.0
 
@@ -312,12 +312,12 @@ def test_conjugate_field_of_principal_directions_is_a_fixed_point():
 def test_published_components():
     V, T, _ = sample_mesh("wave", 24)
     F = np.concatenate([T, T[:, 2:]], axis=1)  # padded as a polygon mesh
-    res = smooth_direction_field((V, F), 0.1, True)
+    res = smooth_field((V, F), 0.1, True)
     assert res.u.shape == res.w.shape == (len(T), 3)
     assert res.lines_u.shape == (len(T), 2, 3)
     assert res.singularity_count == len(res.singularities) == len(res.singularity_index)
     assert 0 <= res.mean_alignment_error < 0.3
-    c = conjugate_direction_field((V, T), 0.1, 1.0, 10)
+    c = conjugate_field((V, T), 0.1, 1.0, 10)
     # exact on every face but the few released near the parabolic lines, which the warnings count
     exact = c.conjugacy_error < 1e-9
     assert np.mean(exact) > 0.9
@@ -333,48 +333,48 @@ def test_published_components():
 
 def test_bad_meshes(nonmanifold_fan):
     with pytest.raises(MeshError, match="mesh"):
-        smooth_field(*nonmanifold_fan)
+        smooth_frame_field(*nonmanifold_fan)
     V, T = _grid_triangles(3, 3)
     Td = T.copy()
     Td[0] = [0, 0, 1]
     with pytest.raises(MeshError, match="mesh"):
-        smooth_field(V, Td)
+        smooth_frame_field(V, Td)
     Vd = V.copy()
     Vd[5] = Vd[4] + 0.5 * (Vd[6] - Vd[4])  # collinear corners somewhere
     V2 = V.copy()
     V2[:, 2] = 0
     V2[1] = V2[0]  # zero-area triangle
     with pytest.raises(MeshError, match="mesh"):
-        smooth_field(V2, T)
+        smooth_frame_field(V2, T)
     with pytest.raises(MeshError, match="mesh"):
-        smooth_direction_field(nonmanifold_fan)
+        smooth_field(nonmanifold_fan)
     with pytest.raises(MeshError, match="mesh"):
-        conjugate_direction_field(nonmanifold_fan)
+        conjugate_field(nonmanifold_fan)
 
 
 def test_bad_options():
     V, T = _grid_triangles(4, 4)
     with pytest.raises(InputError, match="constraints"):
-        smooth_field(V, T, constraints=([0, 99], [[1, 0, 0], [0, 1, 0]]))
+        smooth_frame_field(V, T, constraints=([0, 99], [[1, 0, 0], [0, 1, 0]]))
     with pytest.raises(InputError, match="constraints"):
-        smooth_field(V, T, constraints=([0], [[0, 0, 1]]))  # normal to the face
+        smooth_frame_field(V, T, constraints=([0], [[0, 0, 1]]))  # normal to the face
     with pytest.raises(InputError, match="constraints"):
-        smooth_field(V, T, constraints=([0, 1], [[1, 0, 0]]))
+        smooth_frame_field(V, T, constraints=([0, 1], [[1, 0, 0]]))
     with pytest.raises(InputError, match="alignment"):
-        smooth_field(V, T, alignment=-1)
+        smooth_frame_field(V, T, alignment=-1)
     with pytest.raises(InputError, match="alignment"):
-        smooth_direction_field((V, T), alignment=float("nan"))
-    fld = smooth_field(V, T)
+        smooth_field((V, T), alignment=float("nan"))
+    fld = smooth_frame_field(V, T)
     with pytest.raises(InputError, match="U0"):
-        conjugate_field(V, T, fld.U[:-1], fld.W)
+        conjugate_frame_field(V, T, fld.U[:-1], fld.W)
     with pytest.raises(InputError, match="W0"):
-        conjugate_field(V, T, fld.U, np.zeros_like(fld.W))
+        conjugate_frame_field(V, T, fld.U, np.zeros_like(fld.W))
     with pytest.raises(InputError, match="smoothness"):
-        conjugate_field(V, T, fld.U, fld.W, smoothness=0)
+        conjugate_frame_field(V, T, fld.U, fld.W, smoothness=0)
     with pytest.raises(InputError, match="iterations"):
-        conjugate_direction_field((V, T), iterations=0)
+        conjugate_field((V, T), iterations=0)
     with pytest.raises(InputError, match="curvature"):
-        smooth_field(V, T, curvature=(fld.U, fld.W, np.zeros(3), np.zeros(3)))
+        smooth_frame_field(V, T, curvature=(fld.U, fld.W, np.zeros(3), np.zeros(3)))
 
 
 def test_normalization_separates_merged_singularities():
@@ -386,9 +386,9 @@ def test_normalization_separates_merged_singularities():
         P = V[f.singularities]
         return min(np.linalg.norm(P[i] - P[j]) for i in range(len(P)) for j in range(i))
 
-    linear = smooth_field(V, T, normalize_iterations=0)
-    spread_out = smooth_field(V, T)
+    linear = smooth_frame_field(V, T, normalize_iterations=0)
+    spread_out = smooth_frame_field(V, T)
     assert sorted(spread_out.singularity_index.tolist()) == [0.25] * 4
     assert spread(spread_out) > 2 * spread(linear)
     with pytest.raises(InputError, match="normalize_iterations"):
-        smooth_field(V, T, normalize_iterations=-1)
+        smooth_frame_field(V, T, normalize_iterations=-1)

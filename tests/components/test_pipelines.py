@@ -7,7 +7,8 @@ import pytest
 from components.core.checks import validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import face_normals, face_sizes, read_mesh, triangulate
-from components.fields.pipeline import candidate_mesh, candidate_quality, pq_from_conjugate_field
+from components.fields.candidate import candidate_mesh, candidate_quality
+from components.fields.pipeline import pq_from_conjugate_field
 from components.core.proximity import closest_points
 from components.surfaces.samples import sample_mesh
 from tests.conftest import shared_file

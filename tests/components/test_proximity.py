@@ -133,10 +133,14 @@ def test_bad_inputs_raise_typed_errors(nonmanifold_fan):
     assert not index.oriented
     with pytest.raises(InputError, match="^points"):
         index.query(np.zeros((2, 3)), signed=True)
-    with pytest.raises(InputError, match="^points"):
+    with pytest.raises(InputError, match="^points: point 0 has a NaN or infinite coordinate$"):
         index.query(np.array([[0.0, np.nan, 0.0]]))
-    with pytest.raises(InputError, match="^points"):
+    with pytest.raises(InputError, match="^points: must be points with shape \\(n, 3\\), got shape \\(2, 2\\)$"):
         index.query(np.zeros((2, 2)))
+    with pytest.raises(InputError, match="^points: must be points with shape \\(n, 3\\)"):
+        index.query("abc")
+    assert index.query(np.zeros((0, 3))).distances.shape == (0,)  # no points: empty answers
+    assert index.query(None).points.shape == (0, 3)
     with pytest.raises(MeshError, match="^mesh"):
         TriangleIndex(np.array([[0, 0, 0], [1, 0, np.nan], [0, 1, 0]]), np.array([[0, 1, 2]]))
     with pytest.raises(MeshError, match="^mesh"):
@@ -177,5 +181,8 @@ def test_polyline_bad_inputs():
         PolylineIndex(np.zeros((1, 3)))
     with pytest.raises(InputError, match="^polyline"):
         PolylineIndex(np.zeros((4, 3)))
-    with pytest.raises(InputError, match="^points"):
+    with pytest.raises(InputError, match="^points: point 0 has a NaN or infinite coordinate$"):
         PolylineIndex(np.eye(3)).query(np.array([[np.inf, 0, 0]]))
+    with pytest.raises(InputError, match="^polyline: a polyline needs at least 2 points, got 0$"):
+        PolylineIndex(None)
+    assert PolylineIndex(np.eye(3)).query([]).t.shape == (0,)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.fields.field import conjugate_field, field_curvature, smooth_field
+from components.fields.field import conjugate_frame_field, field_curvature, smooth_frame_field
 from components.core.errors import InputError, MeshError
 from components.core.mesh import read_mesh, triangulate
 from components.core.proximity import closest_points
@@ -65,7 +65,7 @@ def test_evenly_spaced_constant_field_is_a_family_of_parallel_lines():
 def test_streamlines_stay_on_the_surface_and_follow_the_field():
     V, T, _ = sample_mesh("wave", 32)
     cv = field_curvature(V, T)
-    fld = smooth_field(V, T, curvature=cv)
+    fld = smooth_frame_field(V, T, curvature=cv)
     diag = float(np.linalg.norm(V.max(0) - V.min(0)))
     rng = np.random.default_rng(1)
     faces = rng.choice(len(T), 12, replace=False)
@@ -89,7 +89,7 @@ def test_streamlines_stay_on_the_surface_and_follow_the_field():
 
 def test_streamlines_stop_at_the_boundary():
     V, T, B = sample_mesh("dome", 32)
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     lines = trace_streamlines(V, T, fld.U, fld.W, V[~np.isin(np.arange(len(V)), B)][::40], family=0)
     from components.core.proximity import closest_points_on_polyline
 
@@ -125,7 +125,7 @@ def test_loops_close_on_a_torus():
 
 def test_lines_stop_near_singularities():
     V, T, _ = sample_mesh("canopy", 40)
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     assert len(fld.singularities) > 0
     lines = evenly_spaced_streamlines(V, T, fld.U, fld.W, family=2, separation=2.0, singularity_radius=0.6)
     P = np.concatenate(lines)
@@ -136,14 +136,14 @@ def test_lines_stop_near_singularities():
 
 def test_hole_and_real_mesh():
     V, T = _annulus()
-    fld = smooth_field(V, T)
+    fld = smooth_frame_field(V, T)
     lines = evenly_spaced_streamlines(V, T, fld.U, fld.W, family=2, separation=0.3)
     assert len(lines) > 10
     Vr, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
     Tr, _ = triangulate(F)
     cv = field_curvature(Vr, Tr)
-    s = smooth_field(Vr, Tr, curvature=cv)
-    c = conjugate_field(Vr, Tr, s.U, s.W, curvature=cv)
+    s = smooth_frame_field(Vr, Tr, curvature=cv)
+    c = conjugate_frame_field(Vr, Tr, s.U, s.W, curvature=cv)
     net = evenly_spaced_streamlines(Vr, Tr, c.U, c.W, family=2, separation=1.5)
     assert len(net) > 20
     P = np.concatenate(net)

@@ -11,15 +11,15 @@ from hypothesis import strategies as st
 from components.surfaces import generators as surfaces
 from components.core.checks import validate_mesh
 from components.core.errors import InputError
+from components.core.measures import quad_planarity
 from components.core.mesh import boundary_loops, read_mesh, vertex_valence
 from components.surfaces.generators import (
-    _quad_planarity,
     grid_quads,
-    paraboloid_surface,
-    scale_translation_surface,
+    paraboloid,
+    scale_translation,
     surface_mesh,
     surface_points,
-    translation_surface,
+    translation,
 )
 from components.core.types import NurbsCurve, NurbsSurface
 from tests.conftest import shared_file
@@ -90,13 +90,13 @@ def _n_samples(curve, count, sampling):
 )
 def test_translation_surface_is_planar_with_expected_faces(curves, cu, cv, sampling, translate):
     g, d = curves
-    r = translation_surface(g, d, cu, cv, sampling=sampling, translate=translate)
+    r = translation(g, d, cu, cv, sampling=sampling, translate=translate)
     V, Q = r.mesh
     nu, nv = _n_samples(g, cu, sampling), _n_samples(d, cv, sampling)
     assert V.shape == (nu * nv, 3) and Q.shape == ((nu - 1) * (nv - 1), 4)
     assert r.face_count == (nu - 1) * (nv - 1)
     assert r.max_planarity <= 1e-12
-    assert _quad_planarity(V, Q).max() <= 1e-12
+    assert quad_planarity(V, Q).max() <= 1e-12
     validate_mesh(V, Q, kind="quad")
     G, D = r.generatrix_points, r.directrix_points
     N = V.reshape(nv, nu, 3)
@@ -112,7 +112,7 @@ def test_translation_surface_is_planar_with_expected_faces(curves, cu, cv, sampl
 @given(curve_pair(), st.integers(1, 10), st.integers(1, 10), st.sampled_from(["generatrix", "directrix"]))
 def test_equal_steps_give_equal_translation_edges(curves, cu, cv, translate):
     g, d = curves
-    r = translation_surface(g, d, cu, cv, sampling="arclength", translate=translate, equal_steps=True)
+    r = translation(g, d, cu, cv, sampling="arclength", translate=translate, equal_steps=True)
     V, Q = r.mesh
     nu = cu + 1
     N = V.reshape(cv + 1, nu, 3)
@@ -129,7 +129,7 @@ def test_translation_surface_closed_generatrix_is_a_tube():
     # the circle turned into the yz plane
     g = NurbsCurve(2, (H[:, :3] / H[:, 3:])[:, [2, 0, 1]], H[:, 3], np.array(circle.Knots.ToList()))
     d = np.array([[0.0, 0, 0], [4, 0, 1], [8, 0, 0], [12, 1, 0]])
-    r = translation_surface(g, d, 16, 6)
+    r = translation(g, d, 16, 6)
     V, Q = r.mesh
     assert r.face_count == 16 * 6 and len(V) == 16 * 7
     validate_mesh(V, Q, kind="quad")
@@ -137,7 +137,7 @@ def test_translation_surface_closed_generatrix_is_a_tube():
     assert r.max_planarity <= 1e-12
     # closed generatrix and closed directrix: a torus-like closed net, Euler characteristic 0
     square = np.array([[0.0, 0, 0], [10, 0, 0], [10, 10, 2], [0, 10, 0], [0, 0, 0]])
-    r = translation_surface(g, square, 12, 8)
+    r = translation(g, square, 12, 8)
     V, Q = r.mesh
     validate_mesh(V, Q, kind="quad")
     assert boundary_loops(Q) == [] and len(V) - 2 * len(Q) + len(Q) == 0
@@ -145,7 +145,7 @@ def test_translation_surface_closed_generatrix_is_a_tube():
 
 
 def test_translation_surface_of_two_lines_is_a_parallelogram_grid():
-    r = translation_surface(np.array([[0.0, 0, 0], [4, 0, 0]]), np.array([[0.0, 0, 0], [1, 3, 0]]), 4, 3)
+    r = translation(np.array([[0.0, 0, 0], [4, 0, 0]]), np.array([[0.0, 0, 0], [1, 3, 0]]), 4, 3)
     V, Q = r.mesh
     assert np.allclose(V[:, 2], 0)
     assert r.face_count == 12 and r.max_planarity == 0.0
@@ -163,10 +163,10 @@ def test_translation_surface_from_real_vault_edges(path):
     nxt, prev = corners[1] - corners[0], corners[-1] - corners[0]
     side1 = V0[R[: nxt + 1]]  # from the corner forward to the next corner
     side0 = V0[np.concatenate([R[:1], R[prev:][::-1]])]  # from the corner backward to the previous one
-    r = translation_surface(side1, side0, sampling="control")
+    r = translation(side1, side0, sampling="control")
     V, Q = r.mesh
     assert r.face_count == len(F0) == (len(side1) - 1) * (len(side0) - 1)
-    assert r.max_planarity <= 1e-12 < _quad_planarity(V0, F0).max()
+    assert r.max_planarity <= 1e-12 < quad_planarity(V0, F0).max()
     assert np.array_equal(V[: len(side1)], side1)
     validate_mesh(V, Q, kind="quad")
 
@@ -192,7 +192,7 @@ def test_scale_translation_surface_is_planar(curves, cu, cv, sampling, seed, per
     factors = np.exp(rng.uniform(np.log(0.75), np.log(1.3), nv - 1)) if per_step else None
     scale = 1.0 if per_step else float(rng.uniform(0.8, 1.2))
     centre = rng.uniform(-60, 60, 3) if user_centre else None
-    r = scale_translation_surface(g, d, factors, scale, centre, cu, cv, sampling)
+    r = scale_translation(g, d, factors, scale, centre, cu, cv, sampling)
     V, Q = r.mesh
     nu = _n_samples(g, cu, sampling)
     assert r.face_count == (nu - 1) * (nv - 1) == len(Q)
@@ -211,14 +211,14 @@ def test_scale_translation_surface_is_planar(curves, cu, cv, sampling, seed, per
 def test_scale_translation_centre_follows_directrix():
     g = np.array([[-2.0, 0, 0], [0, 0, 1], [2, 0, 0]])
     d = np.array([[0.0, 0, 0], [0, 5, 1]])
-    r = scale_translation_surface(g, d, scale=0.5, centre=np.array([0.0, 0, 0]), count_u=2, count_v=2,
+    r = scale_translation(g, d, scale=0.5, centre=np.array([0.0, 0, 0]), count_u=2, count_v=2,
                                   sampling="count")
     V, _ = r.mesh
     assert np.allclose(r.centres, [[0, 0, 0], [0, 2.5, 0.5], [0, 5, 1]])
     assert np.allclose(V[6:], [[-0.5, 5, 1], [0, 5, 1.25], [0.5, 5, 1]])  # the last section at scale 1/4
     assert np.allclose(r.scales, [1, 0.5, 0.25])
     # default centre: centroid of the sampled generatrix
-    r = scale_translation_surface(g, d, scale=0.5, count_u=2, count_v=1, sampling="count")
+    r = scale_translation(g, d, scale=0.5, count_u=2, count_v=1, sampling="count")
     assert np.allclose(r.centres[0], [0, 0, 1 / 3])
 
 
@@ -227,8 +227,8 @@ def test_scale_one_reproduces_the_translation_surface():
     g = np.column_stack([np.arange(5.0), rng.uniform(-0.2, 0.2, 5), rng.uniform(-1, 1, 5)])
     d = np.column_stack([rng.uniform(-0.2, 0.2, 4), np.arange(4.0) * 2, rng.uniform(-1, 1, 4)])
     d[0] = g[0]
-    a = translation_surface(g, d, 8, 6)
-    b = scale_translation_surface(g, d, count_u=8, count_v=6)
+    a = translation(g, d, 8, 6)
+    b = scale_translation(g, d, count_u=8, count_v=6)
     assert np.allclose(a.mesh[0], b.mesh[0], atol=1e-12) and np.array_equal(a.mesh[1], b.mesh[1])
 
 
@@ -239,7 +239,7 @@ def test_scale_one_reproduces_the_translation_surface():
 @pytest.mark.parametrize("kind, sign", [("elliptic", 1.0), ("hyperbolic", -1.0)])
 def test_paraboloid_presets(kind, sign):
     a, b, hu, hv = 30.0, 20.0, 4.0, 3.0
-    r = paraboloid_surface(kind, a, b, hu, hv, 12, 8)
+    r = paraboloid(kind, a, b, hu, hv, 12, 8)
     V, Q = r.mesh
     x, y, z = V.T
     assert np.allclose(z, hu * (1 - (2 * x / a) ** 2) + sign * hv * (1 - (2 * y / b) ** 2), atol=1e-12)
@@ -252,13 +252,13 @@ def test_paraboloid_presets(kind, sign):
 
 
 def test_unknown_paraboloid_kind_lists_valid_ones():
-    with pytest.raises(InputError, match="elliptic, hyperbolic") as info:
-        paraboloid_surface("spherical")
+    with pytest.raises(InputError, match="must be one of 'elliptic', 'hyperbolic', got 'spherical'") as info:
+        paraboloid("spherical")
     assert info.value.input_name == "kind"
     for name, kwargs in (("span_u", {"span_u": 0.0}), ("span_v", {"span_v": -1.0}), ("rise_u", {"rise_u": np.nan}),
                          ("count_v", {"count_v": 0})):
         with pytest.raises(InputError) as info:
-            paraboloid_surface(**kwargs)
+            paraboloid(**kwargs)
         assert info.value.input_name == name
 
 
@@ -288,15 +288,15 @@ D = np.array([[0.0, 0, 0], [0, 1, 0.5], [0, 2, 0]])
 def test_translation_surface_errors(kwargs, name):
     args = {"generatrix": G, "directrix": D, **kwargs}
     with pytest.raises(InputError) as info:
-        translation_surface(**args)
+        translation(**args)
     assert info.value.input_name == name and str(info.value).startswith(name + ":")
 
 
 def test_unknown_mode_messages_list_valid_values():
-    with pytest.raises(InputError, match="count, arclength, control"):
-        translation_surface(G, D, sampling="uniform")
-    with pytest.raises(InputError, match="generatrix, directrix"):
-        translation_surface(G, D, translate="profile")
+    with pytest.raises(InputError, match="^sampling: must be one of 'count', 'arclength', 'control', got 'uniform'"):
+        translation(G, D, sampling="uniform")
+    with pytest.raises(InputError, match="^translate: must be one of 'generatrix', 'directrix', got 'profile'"):
+        translation(G, D, translate="profile")
 
 
 @pytest.mark.parametrize(
@@ -320,12 +320,12 @@ def test_unknown_mode_messages_list_valid_values():
 def test_scale_translation_errors(kwargs, name):
     args = {"generatrix": G, "directrix": D, "count_u": 4, "count_v": 2, **kwargs}
     with pytest.raises(InputError) as info:
-        scale_translation_surface(**args)
+        scale_translation(**args)
     assert info.value.input_name == name
 
 
 def test_scale_factors_override_scale_with_a_warning():
-    r = scale_translation_surface(G, D, np.array([0.9, 0.8]), 1.5, None, 4, 2)
+    r = scale_translation(G, D, np.array([0.9, 0.8]), 1.5, None, 4, 2)
     assert np.allclose(r.scales, [1, 0.9, 0.72]) and any("ignored" in w for w in r.warnings)
 
 
@@ -458,10 +458,10 @@ def test_published_components_register():
     registry = pytest.importorskip("ghserver.registry")
     from components.surfaces import samples
 
-    for fn, uri in ((translation_surface, "surfaces/translation"),
-                    (scale_translation_surface, "surfaces/scale_translation"),
-                    (paraboloid_surface, "surfaces/paraboloid"), (surface_mesh, "surfaces/mesh"),
-                    (samples.sample_surface, "surfaces/sample")):
+    for fn, uri in ((translation, "surfaces/translation"),
+                    (scale_translation, "surfaces/scale_translation"),
+                    (paraboloid, "surfaces/paraboloid"), (surface_mesh, "surfaces/mesh"),
+                    (samples.sample, "surfaces/sample")):
         comp = registry.declare(fn, uri)
         assert comp.description and all(p.description for p in comp.inputs + comp.outputs)
 

@@ -103,6 +103,8 @@ CASES = {
                          lambda r: len(r.display[0]) == 4 * 64 and r.legend_max >= r.values.max() - 1e-12),
     "metrics/report": (lambda: dict(mesh=hypar()),
                        lambda r: len(r.names) == len(r.values) and r.values[r.names.index("planarity_max")] > 0.01),
+    "metrics/panel_health": (lambda: dict(mesh=quad_grid(4, 4), reference=quad_grid(4, 4)),
+                             lambda r: r.healthy and r.coverage > 0.99 and len(r.unhealthy_faces) == 0),
     "surfaces/translation": (lambda: dict(generatrix=np.array([[0, 0, 0], [4, 0, 1], [8, 0, 0.5], [12, 0, 0.0]]),
                                           directrix=_arc(), count_u=6, count_v=5),
                              lambda r: r.face_count == 30 and r.max_planarity < 1e-12),

@@ -22,6 +22,7 @@ from components.core.errors import InputError
 from components.core.mesh import boundary_loops, write_obj
 from components.metrics.quality import quad_planarity, vertex_distances
 from components.surfaces.samples import SAMPLE_NAMES, sample_mesh
+from components.surfaces.translation_fit import translation_candidate
 from ghserver import report as rp
 
 # ----------------------------------------------------------------------------------------------
@@ -122,12 +123,7 @@ def test_one_row_per_strategy_and_surface(quick_report):
 def test_statuses_are_honest(quick_report):
     _, data = quick_report
     for r in data["results"]:
-        missing = st.get_strategy(r["strategy"]).missing()
-        if missing:
-            assert r["status"] == "not available" and r["detail"] == missing
-            assert r["metrics_before"] is None and r["images"] == []
-        else:
-            assert r["status"] in ("ok", "failed")
+        assert r["status"] in ("ok", "failed")
     by = {(r["strategy"], r["surface"]): r for r in data["results"]}
     for surface in SAMPLE_NAMES:  # the two strategies that exist today run everywhere
         assert by[("translation", surface)]["status"] == "ok"
@@ -230,8 +226,6 @@ def test_html_is_well_formed_and_self_contained(quick_report):
         assert (summary.out_dir / v).is_file(), f"<{tag} {attr}={v}> does not resolve"
     for r in data["results"]:
         assert r["surface"] in text and r["strategy"] in text
-        if r["status"] == "not available":
-            assert "not available" in text
 
 
 def test_progress_bar_only_on_a_terminal():
@@ -291,7 +285,7 @@ def test_report_command_line(tmp_path, capsys):
 def test_translation_candidate_is_exactly_planar_and_close(name):
     V, T, _ = sample_mesh(name, 24)
     h = st.default_panel_size(V, 10)
-    Vt, Qt, info = st.translation_candidate(V, T, h)
+    Vt, Qt, info = translation_candidate(V, T, h)
     assert quad_planarity(Vt, Qt).max() < 1e-12
     # parallelograms: opposite edges equal
     e01 = Vt[Qt[:, 1]] - Vt[Qt[:, 0]]
@@ -309,7 +303,7 @@ def test_translation_fits_a_hyperbolic_paraboloid_along_its_bisectors():
 
     V, Q = quad_grid(20, 20, 2.0, 2.0, height=lambda x, y: (x - 1) * (y - 1))
     T = triangulate(Q)[0]
-    Vt, Qt, info = st.translation_candidate(V, T, 0.1, angles=36)
+    Vt, Qt, info = translation_candidate(V, T, 0.1, angles=36)
     # along the x/y axes the best additive fit of xy leaves an RMS of about 0.1; along the bisectors it is exact
     # up to the piecewise-linear sampling of the two parabolas
     assert info["rms"] < 5e-3
@@ -340,13 +334,10 @@ def test_run_strategy_result_shape():
     assert {"planarize", "total"} <= set(r.timings)
 
 
-def test_not_available_and_failed_strategies(monkeypatch):
+def test_failed_strategy_is_a_row(monkeypatch):
     V, T, _ = sample_mesh("dome", 12)
-    fake = st.Strategy("missing", "Missing", "needs a component", lambda *a, **k: None, lambda: "not written yet")
-    boom = st.Strategy("boom", "Boom", "raises", lambda *a, **k: 1 / 0, lambda: None)
-    monkeypatch.setattr(st, "STRATEGIES", st.STRATEGIES + (fake, boom))
-    r = st.run_strategy("missing", V, T, 5.0)
-    assert r.status == "not available" and r.detail == "not written yet" and r.candidate is None
+    boom = st.Strategy("boom", "Boom", "raises", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(st, "STRATEGIES", st.STRATEGIES + (boom,))
     r = st.run_strategy("boom", V, T, 5.0)
     assert r.status == "failed" and "ZeroDivisionError" in r.detail and r.metrics_before is None
 
@@ -356,7 +347,7 @@ def test_bad_inputs_name_the_input():
     with pytest.raises(InputError, match="strategy"):
         st.run_strategy("nope", V, T, 1.0)
     with pytest.raises(InputError, match="panel_size"):
-        st.translation_candidate(V, T, -1.0)
+        translation_candidate(V, T, -1.0)
     # a bad panel size inside a run is a failed row, not a crash
     r = st.run_strategy("translation", V, T, float("nan"))
     assert r.status == "failed" and "panel_size" in r.detail
