@@ -4,7 +4,7 @@ Meshes: regular quad grids laid on z = 0.3 sin x cos y with quads of size 0.7 (s
 10,000 and 100,000 quads, libigl's ``inspired_mesh_quads_Conjugate.off`` and the dos heart (start 0.12, the hardest).
 Our solver runs with a free boundary and no closeness goal (what libigl solves: ShapeUp local/global, no closeness,
 no fixed vertices) and, for the real meshes, also with its default goals against the input as reference and with
-``planarize_on_surface`` (sliding boundary).
+``on_surface`` (``planarize/on_surface``, sliding boundary).
 
 libigl is very slow, so by default it runs a bounded number of iterations (``--igl-iters``, default 50 on 2,500
 quads, scaled down for larger meshes, skipped on 100k); ``--full`` runs the long reference (2,000 iterations; many
@@ -30,15 +30,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from components.core.measures import corner_angles, nonconvex_faces, quad_planarity as face_planarity  # noqa: E402
 from components.core.mesh import edge_lengths, edge_topology, quad_grid, read_mesh  # noqa: E402
-from components.planarize.planarizer import (  # noqa: E402
-    corner_angles,
-    face_planarity,
-    nonconvex_faces,
-    planarize,
-    planarize_mesh,
-    planarize_on_surface,
-)
+from components.planarize import planarizer  # noqa: E402
+from components.planarize.planarizer import planarize, planarize_mesh  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data" / "meshes"
 
@@ -55,6 +50,11 @@ def _first_below(hist_p, hist_t, thr):
     return float(hist_t[idx[0]]) if len(idx) else float("nan")
 
 
+def _shortest_edge_ratio(V, F):
+    L = edge_lengths(V, edge_topology(F).E)
+    return float(L.min() / np.median(L))
+
+
 def _row(name, m, method, t_total, t3, t4, V0, V, F, mel, closeness=float("nan"), extra=""):
     pl = face_planarity(V, F)
     d = np.linalg.norm(V - V0, axis=1) / mel
@@ -62,7 +62,8 @@ def _row(name, m, method, t_total, t3, t4, V0, V, F, mel, closeness=float("nan")
     ncv = int(nonconvex_faces(V, F).sum())
     fmt = lambda x: "—" if x != x else f"{x:.3g}"  # noqa: E731
     print(f"| {name} | {m:,} | {method} | {fmt(t_total)} | {fmt(t3)} | {fmt(t4)} | {pl.max():.2e} | "
-          f"{d.mean():.3f} / {d.max():.3f} | {fmt(closeness)} | {ang:.1f} | {ncv} |{extra}", flush=True)
+          f"{d.mean():.3f} / {d.max():.3f} | {fmt(closeness)} | {ang:.1f} | {_shortest_edge_ratio(V, F):.3g} | "
+          f"{ncv} |{extra}", flush=True)
     return pl.max(), d.mean()
 
 
@@ -71,7 +72,7 @@ def run_ours(V, F, repeats, on_surface=False, array_level=False, **kw):
     for _ in range(repeats):
         t, c = time.perf_counter(), time.process_time()
         if on_surface:
-            res = planarize_on_surface((V, F), (V, F), **kw)
+            res = planarizer.on_surface((V, F), (V, F), **kw)
         elif array_level:
             res = planarize_mesh(V, F, **kw)
         else:
@@ -86,7 +87,8 @@ def _ours_row(name, m, method, run, V, F, mel, closeness=False):
     h = res.history_max_planarity
     _row(name, m, method, dt, _first_below(h, res.history_time, 1e-3), _first_below(h, res.history_time, 1e-4),
          V, res.mesh[0], F, mel, closeness=res.mean_closeness / mel if closeness else float("nan"),
-         extra=f" {res.iterations} it, {res.stop_reason}, CPU {cpu:.3g} s")
+         extra=f" {res.iterations} it, {res.stop_reason}, converged {res.converged}, healthy {res.healthy}, "
+               f"CPU {cpu:.3g} s")
     return res
 
 
@@ -102,13 +104,14 @@ def bench_mesh(name, V, F, args, igl_iters, real=False):
     m = len(F)
     mel = float(edge_lengths(V, edge_topology(F).E).mean())
     print(f"| {name} | {m:,} | input | — | — | — | {face_planarity(V, F).max():.2e} | 0 / 0 | 0 | "
-          f"{np.degrees(corner_angles(V, F).min()):.1f} | {int(nonconvex_faces(V, F).sum())} |", flush=True)
+          f"{np.degrees(corner_angles(V, F).min()):.1f} | {_shortest_edge_ratio(V, F):.3g} | "
+          f"{int(nonconvex_faces(V, F).sum())} |", flush=True)
     _ours_row(name, m, "ours (free, no closeness)", run_ours(V, F, args.repeats, boundary="free", closeness_weight=0.0,
                                                              tolerance=1e-4, time_budget=60.0), V, F, mel)
     if real:
         _ours_row(name, m, "ours (defaults, reference = input)",
                   run_ours(V, F, args.repeats, reference=(V, F), tolerance=1e-4), V, F, mel, closeness=True)
-        _ours_row(name, m, "ours planarize_on_surface (slide)", run_ours(V, F, args.repeats, on_surface=True),
+        _ours_row(name, m, "ours on_surface (slide)", run_ours(V, F, args.repeats, on_surface=True),
                   V, F, mel, closeness=True)
     if igl_iters:
         ti, Vi = run_igl(V, F, igl_iters)
@@ -121,7 +124,9 @@ def bench_mesh(name, V, F, args, igl_iters, real=False):
             d = np.linalg.norm(res.mesh[0] - V, axis=1).mean() / mel
             print(f"|  |  | → ours{label} to libigl's {p_igl:.2e}: {dt:.3g} s (CPU {cpu:.3g} s), reached "
                   f"{res.max_planarity:.2e}, speed-up ×{ti / dt:,.0f}, mean move/edge {d:.3f} vs libigl {d_igl:.3f}, "
-                  f"worst corner {res.worst_corner_angle:.1f}°, non-convex {res.nonconvex_faces} | | | | | | | | |",
+                  f"worst corner {res.worst_corner_angle:.1f}°, shortest edge "
+                  f"{_shortest_edge_ratio(res.mesh[0], F):.3g} × median, non-convex {res.nonconvex_faces} "
+                  f"| | | | | | | | | |",
                   flush=True)
 
 
@@ -133,7 +138,7 @@ def child_100k():
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     t3 = _first_below(res.history_max_planarity, res.history_time, 1e-3)
     print(f"{dt:.3f} {t3:.3f} {res.max_planarity:.3e} {rss:.0f} {res.iterations} {res.worst_corner_angle:.1f} "
-          f"{res.nonconvex_faces}")
+          f"{res.nonconvex_faces} {_shortest_edge_ratio(res.mesh[0], F):.3g}")
 
 
 def main(argv=None):
@@ -147,8 +152,8 @@ def main(argv=None):
         child_100k()
         return
     print("| mesh | quads | method | time s | t→1e-3 | t→1e-4 | final max planarity | mean / max move (edges) |"
-          " mean closeness (edges) | worst corner ° | non-convex |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          " mean closeness (edges) | worst corner ° | shortest edge / median | non-convex |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     bench_mesh("sin-cos grid", *sincos_grid(50), args, 2000 if args.full else 50)
     bench_mesh("sin-cos grid", *sincos_grid(100), args, 200 if args.full else 10)
     conj = SHARED / "libigl" / "inspired_mesh_quads_Conjugate.off"
@@ -159,9 +164,10 @@ def main(argv=None):
         bench_mesh("dos heart", *read_mesh(heart), args, 300 if args.full else 50, real=True)
     if not args.skip_100k:
         out = subprocess.run([sys.executable, __file__, "--child-100k"], capture_output=True, text=True, check=True)
-        dt, t3, p, rss, it, ang, ncv = out.stdout.split()
-        print(f"| sin-cos grid | 99,856 | ours (free, no closeness), child process | {float(dt):.3g} | {float(t3):.3g} | "
-              f"— | {float(p):.2e} | — | — | {ang} | {ncv} | peak RSS {float(rss):,.0f} MB, {it} it |")
+        dt, t3, p, rss, it, ang, ncv, short = out.stdout.split()
+        print(f"| sin-cos grid | 99,856 | ours (free, no closeness), child process | {float(dt):.3g} | "
+              f"{float(t3):.3g} | — | {float(p):.2e} | — | — | {ang} | {short} | {ncv} | "
+              f"peak RSS {float(rss):,.0f} MB, {it} it |")
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@ Run from the project root::
 
 Tables printed:
 
-1. ``catmull_clark`` on regular grids of growing size, a mixed tri/quad/pentagon mesh and the shared real
+1. ``subdivided_mesh`` on regular grids of growing size, a mixed tri/quad/pentagon mesh and the shared real
    meshes, beside libigl's Loop subdivision (``igl.loop``, the nearest compiled subdivision in the reference
    libraries) on the fan-triangulated input with the same number of levels: time and time per output face.
 2. A cross-check with COMPAS' Catmull-Clark (pure Python, ``compas.datastructures``) on closed meshes, where both
@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 
 from components.core.mesh import pad_faces, quad_grid, read_mesh, triangulate  # noqa: E402
 from components.subdivision.pull import pulled_vertices  # noqa: E402
-from components.subdivision.subdivide import catmull_clark  # noqa: E402
+from components.subdivision.subdivide import subdivided_mesh  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data" / "meshes"
 
@@ -90,12 +90,12 @@ def table_subdivision(quick: bool):
         path = SHARED / rel
         if path.exists():
             cases.append((rel.split("/")[-1], read_mesh(path), levels))
-    print("\n1. catmull_clark vs igl.loop (same levels, input fan-triangulated for Loop)")
+    print("\n1. subdivided_mesh vs igl.loop (same levels, input fan-triangulated for Loop)")
     print(f"{'mesh':38s} {'L':>2s} {'faces in':>9s} {'faces out':>10s} {'ours s':>8s} {'µs/face':>8s} "
           f"{'loop faces':>11s} {'loop s':>8s} {'µs/face':>8s} {'ratio':>6s}")
     for name, (V, F), levels in cases:
         repeat = 1 if len(F) * 4 ** levels > 300_000 else 3
-        t_ours, (V1, Q1, _) = _best(lambda: catmull_clark(V, F, levels=levels, max_faces=4_000_000), repeat)
+        t_ours, (V1, Q1, _) = _best(lambda: subdivided_mesh(V, F, levels=levels, max_faces=4_000_000), repeat)
         T = triangulate(F)[0]
         t_loop, (VL, FL) = _best(lambda: igl.loop(V, T, levels), repeat)
         a = 1e6 * t_ours / len(Q1)
@@ -115,9 +115,9 @@ def table_compas():
         return
     print("\n2. cross-check with COMPAS Catmull-Clark on closed meshes (same rules)")
     print(f"{'mesh':12s} {'L':>2s} {'faces':>7s} {'max |Δv|':>10s} {'ours s':>8s} {'compas s':>9s} {'ratio':>7s}")
-    sphere = catmull_clark(*_cube(), levels=2)[:2]
+    sphere = subdivided_mesh(*_cube(), levels=2)[:2]
     for name, (V, F), levels in (("cube", _cube(), 4), ("pyramid", _pyramid(), 4), ("cube L2", sphere, 3)):
-        t_ours, (V1, Q1, _) = _best(lambda: catmull_clark(V, F, levels=levels))
+        t_ours, (V1, Q1, _) = _best(lambda: subdivided_mesh(V, F, levels=levels))
         faces = [list(dict.fromkeys(f)) for f in F.tolist()]
         m = Mesh.from_vertices_and_faces(V.tolist(), faces)
         t_c, sub = _best(lambda: m.subdivided("catmullclark", k=levels), 1)
@@ -144,7 +144,7 @@ def table_pull(quick: bool):
           f"{'max after/diag':>15s}")
     diag = float(np.linalg.norm(Vr.max(0) - Vr.min(0)))
     for levels in (0, 1, 2) if quick else (0, 1, 2, 3):
-        V, Q, _ = catmull_clark(Vq, Fq, levels=levels)
+        V, Q, _ = subdivided_mesh(Vq, Fq, levels=levels)
         t_ours, res = _best(lambda: pulled_vertices(V, Q, Vr, Tr, boundary="surface"))
         t_igl, (sq, _, _) = _best(lambda: igl.point_mesh_squared_distance(V, Vr, Tr))
         d = np.abs(res.distances_before - np.sqrt(sq)).max()
@@ -156,7 +156,7 @@ def table_strategy(quick: bool):
     import igl
 
     from components.core.mesh import bounding_box_diagonal
-    from components.planarize.planarizer import face_planarity
+    from components.core.measures import quad_planarity as face_planarity
     from components.core.proximity import TriangleIndex
     from components.surfaces.samples import sample_mesh
     from components.subdivision.pipeline import subdivision_pq

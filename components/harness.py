@@ -4,8 +4,10 @@ Every runner takes a design surface as a triangle mesh ``(V, T)`` and a target p
 units) and returns a *candidate* quad mesh (what the strategy builds before any optimization) and, where the
 strategy has an optimization step, the *optimized* mesh. :func:`run_strategy` wraps a runner with timings, the
 full metric table of :func:`components.metrics.quality.metrics_report` before and after (closeness measured against the
-design surface) and the caveats; :func:`run_strategies` runs a list of them. A strategy that raises is reported as
-``status="failed"`` with the error message.
+design surface), the caveats, and an independent verdict: :func:`components.metrics.health.face_health` of the
+candidate and of the final mesh against the design surface, with the planarity tolerance the strategy targets
+(:attr:`Strategy.tolerance`). The harness never trusts a strategy's own claim of health; the same bounds judge every
+strategy. :func:`run_strategies` runs a list of them.
 
 =====================  ==========================================================================================
 strategy               steps
@@ -20,6 +22,17 @@ strategy               steps
 ``subdivision``        automatic coarse quad net → Catmull-Clark → pull onto the surface → planarization
                        (``components.subdivision.pipeline.subdivision_pq``).
 =====================  ==========================================================================================
+
+Status (a small fixed set, :data:`STATUSES`; the words are in ``detail``)
+-------------------------------------------------------------------------
+======================  ========================================================================================
+``"ok"``                the final mesh is healthy (no defect but planarity, coverage reached) and every panel is
+                        within the planarity tolerance
+``"unhealthy"``         the final mesh has a defect other than planarity (collapsed edges, sharp corners, folds,
+                        small panels, crossings …) or covers too little of the design surface; ``detail`` names it
+``"tolerance missed"``  healthy, but some panels are above the planarity tolerance; ``detail`` says how far
+``"failed"``            the strategy raised (``detail``: the error), or its result cannot be measured
+======================  ========================================================================================
 
 References
 ----------
@@ -42,6 +55,7 @@ from components.core.checks import check_choice, validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, triangulate
 from components.fields.pipeline import pq_from_conjugate_field
+from components.metrics.health import DEFECT_BITS, PanelHealth, face_health
 from components.metrics.quality import metrics_report
 from components.network.pipeline import pq_from_curvature_network
 from components.subdivision.pipeline import subdivision_pq
@@ -59,10 +73,28 @@ __all__ = [
     "run_strategy",
     "run_strategies",
     "default_panel_size",
+    "STATUSES",
+    "HEALTH_BOUNDS",
+    "DEFAULT_TOLERANCE",
+    "judge",
+    "panel_verdict",
+    "shape_healthy",
+    "Verdict",
 ]
 
 STATUS_OK = "ok"
+STATUS_UNHEALTHY = "unhealthy"
+STATUS_TOLERANCE = "tolerance missed"
 STATUS_FAILED = "failed"
+#: every status a :class:`StrategyResult` can have
+STATUSES = (STATUS_OK, STATUS_UNHEALTHY, STATUS_TOLERANCE, STATUS_FAILED)
+
+#: scale-free planarity every registered strategy targets (the planarizer's, the conical optimizer's and the
+#: pipelines' default ``tolerance``; the translation surface is exact)
+DEFAULT_TOLERANCE = 1e-4
+#: the panel-health bounds of the verdict (:func:`components.metrics.health.face_health`'s defaults, spelled out)
+HEALTH_BOUNDS = {"min_edge_ratio": 0.2, "min_angle": 20.0, "min_area_ratio": 0.1, "min_coverage": 0.85}
+_SHAPE_DEFECTS = ~DEFECT_BITS["nonplanar"]  # every defect bit but planarity
 
 
 class StrategyResult(NamedTuple):
@@ -75,22 +107,35 @@ class StrategyResult(NamedTuple):
     surface : str
         Name of the design surface.
     status : str
-        ``"ok"`` or ``"failed"``.
+        One of :data:`STATUSES`: ``"ok"``, ``"unhealthy"``, ``"tolerance missed"`` or ``"failed"``.
     candidate : (V, F) tuple or None
         The quad mesh the strategy builds before optimization.
     optimized : (V, F) tuple or None
         The optimized mesh (same faces as the candidate), or None when the strategy has no optimization step.
     timings : dict of str -> float
-        Wall-clock seconds per step, plus ``"total"``.
+        Wall-clock seconds per step, plus ``"total"`` (the strategy's run) and ``"health"`` (the verdict, after it).
     metrics_before, metrics_after : dict of str -> float, or None
         :func:`components.metrics.quality.metrics_report` of the candidate / the optimized mesh, closeness against the
         design surface.
     warnings : list of str
         Non-fatal caveats of the steps.
     detail : str
-        Why the strategy failed; a one-line description of what ran otherwise.
+        Why the status is not ``"ok"`` (the defect, the missed tolerance, the error); for ``"ok"`` the one-line
+        description of what ran.
     panel_size : float
         The requested panel size (model units).
+    description : str
+        The one-line description of what ran ("" when the strategy raised).
+    tolerance : float
+        The planarity tolerance the result is judged by (scale-free).
+    healthy : bool or None
+        The final mesh has no defect but planarity and covers enough of the design surface (None: not measured).
+    coverage : float
+        Covered share of the design surface by the final mesh, 0..1 (NaN: not measured).
+    violations : list of str
+        :attr:`PanelHealth.violations` of the final mesh (planarity included).
+    health, candidate_health : PanelHealth or None
+        The full verdict of the final mesh and of the candidate (worst corner, shortest edge ratio, holes …).
     """
 
     name: str
@@ -104,11 +149,23 @@ class StrategyResult(NamedTuple):
     warnings: list
     detail: str
     panel_size: float
+    description: str = ""
+    tolerance: float = DEFAULT_TOLERANCE
+    healthy: bool | None = None
+    coverage: float = float("nan")
+    violations: tuple | list = ()
+    health: PanelHealth | None = None
+    candidate_health: PanelHealth | None = None
 
     @property
     def final(self) -> tuple | None:
         """The optimized mesh when there is one, else the candidate."""
         return self.optimized if self.optimized is not None else self.candidate
+
+    @property
+    def candidate_healthy(self) -> bool | None:
+        """The candidate's verdict: no defect but planarity, coverage reached (None: not measured)."""
+        return None if self.candidate_health is None else shape_healthy(self.candidate_health)
 
 
 class Candidate(NamedTuple):
@@ -122,7 +179,7 @@ class Candidate(NamedTuple):
 
 
 class Strategy(NamedTuple):
-    """A registered strategy: key, title, what it does and its runner.
+    """A registered strategy: key, title, what it does, its runner and the planarity tolerance it targets.
 
     ``runner(V, T, panel_size, time_budget=...) -> Candidate``.
     """
@@ -131,6 +188,15 @@ class Strategy(NamedTuple):
     title: str
     description: str
     runner: Callable
+    tolerance: float = DEFAULT_TOLERANCE
+
+
+class Verdict(NamedTuple):
+    """The status of a measured result and the text that goes with it (see :func:`judge`)."""
+
+    status: str  # "ok", "unhealthy" or "tolerance missed"
+    healthy: bool  # no defect but planarity, coverage reached
+    detail: str  # the defect ("" for "ok")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -253,6 +319,51 @@ def _metrics(mesh, reference, name):
     return metrics_report(mesh[0], mesh[1], reference=reference, name=name)
 
 
+def panel_verdict(mesh, reference, tolerance: float, name: str) -> PanelHealth:
+    """:func:`components.metrics.health.face_health` of ``mesh`` against the design surface ``reference``, with the
+    strategy's planarity ``tolerance`` and :data:`HEALTH_BOUNDS`."""
+    return face_health(mesh[0], mesh[1], reference, tolerance=tolerance, **HEALTH_BOUNDS, name=name)
+
+
+def shape_healthy(h: PanelHealth) -> bool:
+    """No defect but planarity, and the coverage reached (when measured)."""
+    covered = bool(np.isnan(h.coverage) or h.coverage >= HEALTH_BOUNDS["min_coverage"])
+    return bool(not np.any(h.face_defects & _SHAPE_DEFECTS)) and covered
+
+
+def judge(h: PanelHealth, tolerance: float) -> Verdict:
+    """The status of a result from its panel health: ``"ok"`` only when healthy and within the tolerance.
+
+    Examples
+    --------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(4, 4)
+    >>> h = panel_verdict((V, Q), (V, triangulate(Q)[0]), 1e-4, "mesh"); judge(h, 1e-4)
+    Verdict(status='ok', healthy=True, detail='')
+    >>> V[6, 2] = 0.1  # one inner vertex lifted: its four panels twisted
+    >>> judge(panel_verdict((V, Q), None, 1e-4, "mesh"), 1e-4).detail
+    'max planarity 0.13 > tolerance 0.0001 (4 of 16 faces above)'
+    >>> V[7, 0] = V[8, 0] - 1e-3  # and edge (7, 8) collapsed
+    >>> v = judge(panel_verdict((V, Q), None, 1e-4, "mesh"), 1e-4); v.status, v.healthy
+    ('unhealthy', False)
+    """
+    healthy = shape_healthy(h)
+    nonplanar = int(h.counts["nonplanar"])
+    missed = ""
+    if nonplanar:
+        worst = float(np.max(h.planarity))
+        missed = (f"max planarity {worst:.2g} > tolerance {tolerance:g} ({nonplanar} of {len(h.planarity)} faces "
+                  f"above)")
+    if not healthy:
+        lines = [line for line in h.violations if not (nonplanar and "not planar" in line)]
+        if missed:
+            lines.append("tolerance missed: " + missed)
+        return Verdict(STATUS_UNHEALTHY, False, "; ".join(lines))
+    if missed:
+        return Verdict(STATUS_TOLERANCE, True, missed)
+    return Verdict(STATUS_OK, True, "")
+
+
 def run_strategy(name: str, V, T, panel_size: float, surface: str = "surface",
                  time_budget: float = 30.0) -> StrategyResult:
     """Run one strategy on a design surface and measure the result.
@@ -275,7 +386,9 @@ def run_strategy(name: str, V, T, panel_size: float, surface: str = "surface",
     Returns
     -------
     StrategyResult
-        Never raises for a strategy's own failure: ``status`` says ``"failed"`` and ``detail`` the error.
+        Never raises for a strategy's own failure: ``status`` says ``"failed"`` and ``detail`` the error. The
+        status of a result comes from :func:`judge` on the final mesh's panel health (never from the strategy's
+        own claims).
 
     Raises
     ------
@@ -297,14 +410,24 @@ def run_strategy(name: str, V, T, panel_size: float, surface: str = "surface",
     timings["total"] = time.perf_counter() - t0
     warnings = list(out.warnings)
     reference = (V, T)
+    tol = float(strat.tolerance)
     try:
         before = _metrics(out.candidate, reference, "candidate")
         after = _metrics(out.optimized, reference, "optimized") if out.optimized is not None else None
+        t1 = time.perf_counter()
+        cand_health = panel_verdict(out.candidate, reference, tol, "candidate")
+        health = (panel_verdict(out.optimized, reference, tol, "optimized") if out.optimized is not None
+                  else cand_health)
+        timings["health"] = time.perf_counter() - t1
     except (InputError, MeshError) as exc:
         return StrategyResult(name, surface, STATUS_FAILED, out.candidate, out.optimized, timings, None, None,
-                              warnings, f"the result cannot be measured: {exc}", h)
-    return StrategyResult(name, surface, STATUS_OK, out.candidate, out.optimized, timings, before, after, warnings,
-                          out.detail, h)
+                              warnings, f"the result cannot be measured: {exc}", h, out.detail, tol)
+    verdict = judge(health, tol)
+    if verdict.status != STATUS_OK:
+        log.info("strategy %s on %s: %s: %s", name, surface, verdict.status, verdict.detail)
+    return StrategyResult(name, surface, verdict.status, out.candidate, out.optimized, timings, before, after,
+                          warnings, verdict.detail or out.detail, h, out.detail, tol, verdict.healthy,
+                          float(health.coverage), list(health.violations), health, cand_health)
 
 
 def run_strategies(V, T, panel_size: float, surface: str = "surface", names=None,

@@ -10,9 +10,15 @@
   area (matplotlib, Agg backend, fixed size and camera per surface, a colour bar whose limits are the min/max of
   the plotted values), histograms of planarity / warping height / area before and after optimization, and the
   comparison plots (panel area against panel count per strategy and surface, planarity before/after);
-* ``report.csv`` and ``report.json``: one row per (strategy, surface) with every metric and timing; the JSON also
-  records every image with the range of its colour bar;
+* ``report.csv`` and ``report.json``: one row per (strategy, surface) with every metric and timing, the panel
+  health of the candidate and of the final mesh (healthy, coverage, worst corner, shortest edge ÷ median, holes,
+  violations) and the status; the JSON also records every image with the range of its colour bar;
 * ``meshes/*.obj``: the candidate and optimized meshes.
+
+A row's status is the harness's verdict (:func:`components.harness.judge` on
+:func:`components.metrics.health.face_health` of the final mesh against the design surface): ``"ok"`` only for a
+healthy result within the planarity tolerance; ``"unhealthy"`` and ``"tolerance missed"`` name the defect in the
+status cell, and their meshes are pictured like the others; ``"failed"`` rows have no mesh.
 
 matplotlib is imported inside the functions that draw (``matplotlib.use("Agg")`` there), never at import.
 """
@@ -75,6 +81,8 @@ class ReportSummary(NamedTuple):
     rows: int
     images: int
     elapsed: float
+    statuses: tuple = ()  # (surface, strategy, status, detail) per row
+
 
 
 # ----------------------------------------------------------------------------------------------
@@ -407,13 +415,15 @@ def render_planarity_bars(path, rows: list[dict], strategies: list[str], surface
 
 
 _CSS = """
-body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0 auto;max-width:1400px;
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0 auto;max-width:1600px;
 padding:1em 2em;color:#222;background:#fff;line-height:1.4}
 h1{margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.85em}
 th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right;vertical-align:top}
 th{background:#f3f3f3}td.l,th.l{text-align:left}
-tr.na td{color:#888;font-style:italic}tr.failed td{color:#a00}
+tr.na td{color:#888;font-style:italic}tr.failed td{color:#a00}tr.unhealthy td.status{color:#a00}
+tr.tolerance td.status{color:#8a5a00}td.status{min-width:12em;max-width:26em}td.warnings{min-width:5em;max-width:36em;font-size:.9em}
+.bad{color:#a00;font-size:.9em}
 .grid{display:flex;flex-wrap:wrap;gap:.8em}
 figure{margin:0;flex:0 1 450px}figure img{width:100%;height:auto;border:1px solid #eee}
 figcaption{font-size:.8em;color:#555}
@@ -462,13 +472,53 @@ _SUMMARY_COLUMNS = (
 )
 
 
+#: row class per status (colours the status cell)
+_STATUS_CLASS = {"ok": "", "unhealthy": "unhealthy", "tolerance missed": "tolerance", "failed": "failed"}
+
+#: the panel-health columns of the summary: row key, title
+_HEALTH_COLUMNS = (
+    ("healthy", "healthy"),
+    ("coverage", "coverage"),
+    ("worst_corner", "worst corner (°)"),
+    ("shortest_edge_ratio", "shortest edge ÷ median"),
+)
+
+
+def status_text(r: dict) -> str:
+    """The status cell: ``"ok"``, or the status and the defect (``"unhealthy: 3 edges shorter than …"``)."""
+    return r["status"] if r["status"] == "ok" else f'{r["status"]}: {r["detail"]}'
+
+
+def _health_cell(key: str, v) -> str:
+    if v is None:
+        return "<td>–</td>"
+    if key == "healthy":
+        return f"<td>{'yes' if v else 'no'}</td>"
+    if key == "coverage":
+        return f"<td>{_e(format(float(v), '.1%'))}</td>" if math.isfinite(float(v)) else "<td>–</td>"
+    return f"<td>{_fmt(v)}</td>"
+
+
+def _notes_cell(r: dict) -> str:
+    """The warnings cell: the strategy's warnings and the panel-health violations, folded under their count."""
+    notes = list(r["warnings"]) + list(r.get("violations") or ())
+    if not notes:
+        return '<td class="l warnings"></td>'
+    lines = "<br>".join(_e(w) for w in notes)
+    return (f'<td class="l warnings"><details><summary>{len(notes)} note{"" if len(notes) == 1 else "s"}</summary>'
+            f"{lines}</details></td>")
+
+
 def _summary_table(rows: list[dict]) -> str:
-    head = "".join(f"<th>{_e(t)}</th>" for _, t, _ in _SUMMARY_COLUMNS)
+    head = "".join(f"<th>{_e(t)}</th>" for _, t in _HEALTH_COLUMNS) + '<th class="l">warnings</th>'
+    head += "".join(f"<th>{_e(t)}</th>" for _, t, _ in _SUMMARY_COLUMNS)
     out = [f'<table><thead><tr><th class="l">surface</th><th class="l">strategy</th><th class="l">status</th>'
            f'{head}<th>time (s)</th></tr></thead><tbody>']
     for r in rows:
-        cls = {"ok": "", "failed": ' class="failed"'}[r["status"]]
-        cells = []
+        cls = _STATUS_CLASS[r["status"]]
+        cls = f' class="{cls}"' if cls else ""
+        cells = [_health_cell(key, r.get(key)) for key, _ in _HEALTH_COLUMNS]
+        cells.append(_notes_cell(r))
         for key, _, stage in _SUMMARY_COLUMNS:
             m = r["metrics_before"] if stage == "before" else (
                 r["metrics_after"] if stage == "after" else r.get("final_metrics"))
@@ -476,10 +526,9 @@ def _summary_table(rows: list[dict]) -> str:
             if v is not None and key == "corner_angle_min":
                 v = math.degrees(v)
             cells.append(f"<td>{_fmt(v)}</td>")
-        status = r["status"] if r["status"] == "ok" else f'{r["status"]}: {r["detail"]}'
         total = r["timings"].get("total")
         out.append(f'<tr{cls}><td class="l">{_e(r["surface"])}</td><td class="l">{_e(r["strategy"])}</td>'
-                   f'<td class="l">{_e(status)}</td>{"".join(cells)}<td>{_fmt(total)}</td></tr>')
+                   f'<td class="l status">{_e(status_text(r))}</td>{"".join(cells)}<td>{_fmt(total)}</td></tr>')
     out.append("</tbody></table>")
     return "\n".join(out)
 
@@ -492,6 +541,10 @@ def _metrics_table(r: dict) -> str:
     for k in keys:
         out.append(f'<tr><td class="l">{_e(k)}</td><td>{_fmt(b[k], 6)}</td>'
                    + (f"<td>{_fmt(a.get(k), 6)}</td>" if a is not None else "") + "</tr>")
+    cand, final = r.get("candidate_health") or {}, r.get("final_health") or {}
+    for key, title in _HEALTH_COLUMNS + (("holes", "holes"),):
+        out.append(f'<tr><td class="l">health: {_e(title)}</td>{_health_cell(key, cand.get(key))}'
+                   + (_health_cell(key, final.get(key)) if a is not None else "") + "</tr>")
     for k, v in r["timings"].items():
         out.append(f'<tr><td class="l">time: {_e(k)} (s)</td><td>{_fmt(v, 4)}</td>'
                    + ("<td></td>" if a is not None else "") + "</tr>")
@@ -541,11 +594,13 @@ def _html(report: dict, titles: dict) -> str:
         for r in (r for r in rows if r["surface"] == sname):
             title = titles[r["strategy"]][0]
             parts.append(f"<h3>{_e(title)} on {_e(sname)}</h3>")
-            if r["status"] != "ok":
-                parts.append(f'<p class="note">{_e(r["status"])}: {_e(r["detail"])}</p>')
+            if not r["images"]:  # failed: no mesh to show
+                parts.append(f'<p class="bad">{_e(status_text(r))}</p>')
                 continue
-            parts.append(f'<p class="note">{_e(r["detail"])}</p>')
-            for w in r["warnings"]:
+            if r["status"] != "ok":
+                parts.append(f'<p class="bad">{_e(status_text(r))}</p>')
+            parts.append(f'<p class="note">{_e(r["description"])}</p>')
+            for w in list(r["warnings"]) + [f"panel health: {v}" for v in r["violations"]]:
                 parts.append(f'<p class="warn">⚠ {_e(w)}</p>')
             parts.append('<div class="grid">')
             for img in r["images"]:
@@ -572,8 +627,24 @@ def _html(report: dict, titles: dict) -> str:
 # CSV / JSON
 
 
+#: panel-health fields of a row, as CSV columns (``candidate_*`` for the candidate's verdict)
+_HEALTH_FIELDS = ("healthy", "coverage", "holes", "worst_corner", "shortest_edge_ratio")
+
+
+def _csv_value(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return str(v)
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return repr(float(v))
+
+
 def _csv_rows(rows: list[dict]) -> tuple[list[str], list[dict]]:
-    fixed = ["strategy", "surface", "status", "detail", "panel_size", "warnings"]
+    fixed = ["strategy", "surface", "status", "detail", "description", "panel_size", "tolerance",
+             *_HEALTH_FIELDS, "violations", "warnings", *(f"candidate_{k}" for k in _HEALTH_FIELDS),
+             "candidate_violations"]
     timing_keys, metric_keys = [], []
     for r in rows:
         for k in r["timings"]:
@@ -588,7 +659,14 @@ def _csv_rows(rows: list[dict]) -> tuple[list[str], list[dict]]:
     out = []
     for r in rows:
         d = {"strategy": r["strategy"], "surface": r["surface"], "status": r["status"], "detail": r["detail"],
-             "panel_size": repr(r["panel_size"]), "warnings": " | ".join(r["warnings"])}
+             "description": r["description"], "panel_size": repr(r["panel_size"]),
+             "tolerance": repr(r["tolerance"]), "violations": " | ".join(r["violations"]),
+             "warnings": " | ".join(r["warnings"])}
+        cand = r["candidate_health"] or {}
+        for k in _HEALTH_FIELDS:
+            d[k] = _csv_value(r[k])
+            d[f"candidate_{k}"] = _csv_value(cand.get(k))
+        d["candidate_violations"] = " | ".join(cand.get("violations", ()))
         for k in timing_keys:
             d[f"time_{k}"] = repr(r["timings"][k]) if k in r["timings"] else ""
         for stage in ("before", "after"):
@@ -705,12 +783,16 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                                    time_budget=settings.time_budget)
                 bar.step(f"{surf.name}: {sname} {res.status}")
                 row = {"strategy": sname, "surface": surf.name, "status": res.status, "detail": res.detail,
-                       "panel_size": res.panel_size, "timings": dict(res.timings),
+                       "description": res.description, "panel_size": res.panel_size, "tolerance": res.tolerance,
+                       **_health_fields(res.health), "violations": list(res.violations),
+                       "candidate_health": _health_summary(res.candidate_health),
+                       "timings": dict(res.timings),
                        "metrics_before": res.metrics_before, "metrics_after": res.metrics_after,
                        "final_metrics": res.metrics_after or res.metrics_before,
                        "warnings": list(res.warnings), "images": [], "meshes": {}}
+                row["final_health"] = _health_summary(res.health)
                 rows.append(row)
-                if res.status != "ok":
+                if row["final_metrics"] is None:  # failed: nothing to draw
                     bar.step(n=7)
                     continue
                 # the meshes and their pictures; the scene box covers the design surface and every result
@@ -744,8 +826,8 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                 n_images += 1
                 row["images"].append({"kind": "histogram", "file": fname, "title": htitle, "size": list(HIST_SIZE)})
                 bar.step(f"{surf.name}: {sname} histograms", n=8 - 1 - 3 * len(stages))
-        # comparison plots over every successful run
-        ok = [r for r in rows if r["status"] == "ok"]
+        # comparison plots over every measured run (unhealthy ones included: their panels are the point)
+        ok = [r for r in rows if r["final_metrics"] is not None]
         comparisons = []
         surf_names = [s.name for s in surfs]
         if ok:
@@ -776,7 +858,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
             "settings": {"mode": mode, **settings._asdict(), "image_size": list(IMAGE_SIZE)},
             "strategies": [{"name": n, "title": titles[n][0], "description": titles[n][1]} for n in strat_names],
             "surfaces": surf_info,
-            "results": [{k: v for k, v in r.items() if k != "final_metrics"} for r in rows],
+            "results": [{k: v for k, v in r.items() if k not in ("final_metrics", "final_health")} for r in rows],
             "comparisons": comparisons,
         }
         html_path, csv_path, json_path = out / "report.html", out / "report.csv", out / "report.json"
@@ -791,7 +873,26 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     finally:
         bar.close()
     log.info("report: %d rows, %d images in %.1f s -> %s", len(rows), n_images, elapsed, html_path)
-    return ReportSummary(out, html_path, csv_path, json_path, len(rows), n_images, elapsed)
+    statuses = tuple((r["surface"], r["strategy"], r["status"], r["detail"]) for r in rows)
+    return ReportSummary(out, html_path, csv_path, json_path, len(rows), n_images, elapsed, statuses)
+
+
+def _health_fields(h) -> dict:
+    """The summary's health values of a :class:`components.metrics.health.PanelHealth` (all None without one)."""
+    from components.harness import shape_healthy
+
+    if h is None:
+        return {k: None for k in _HEALTH_FIELDS}
+    return {"healthy": shape_healthy(h), "coverage": None if math.isnan(h.coverage) else float(h.coverage),
+            "holes": int(h.holes), "worst_corner": float(h.worst_corner),
+            "shortest_edge_ratio": float(h.shortest_edge_ratio)}
+
+
+def _health_summary(h) -> dict | None:
+    """:func:`_health_fields` and the violation lines, or None without a verdict."""
+    if h is None:
+        return None
+    return {**_health_fields(h), "violations": list(h.violations)}
 
 
 def _areas_of(path: Path) -> np.ndarray:
@@ -838,6 +939,11 @@ def _split(value):
 
 
 def _done(summary: ReportSummary) -> int:
+    for surface, strategy, status, detail in summary.statuses:
+        line = f"  {surface:<10} {strategy:<18} {status}"
+        if status != "ok":
+            line += f": {detail}" if len(detail) <= 160 else f": {detail[:157]}..."
+        print(line)
     print(f"report written to {summary.html} ({summary.rows} rows, {summary.images} images) in "
           f"{summary.elapsed:.1f} s; serve it with: ghserver serve --report-dir {summary.out_dir}")
     return 0

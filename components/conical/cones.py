@@ -9,7 +9,8 @@ height need. Offsetting the vertices along vertex normals (the *vertex offset*) 
 constant distance; :func:`vertex_offset` is here for comparison.
 
 Array-level functions: :func:`conical_criterion`, :func:`conical_check`, :func:`node_axes`, :func:`face_planes`,
-:func:`face_offset`, :func:`vertex_offset`. Published components: :func:`conical_analysis`, :func:`offset_mesh`.
+:func:`face_offset`, :func:`vertex_offset`. Published components: :func:`analysis` (``conical/analysis``),
+:func:`offset` (``conical/offset``).
 """
 from __future__ import annotations
 
@@ -17,28 +18,31 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
-from components.core.checks import validate_mesh
-from components.core.errors import InputError, MeshError
+from components.core.checks import check_choice, check_mesh, check_number
+from components.core.errors import InputError
+from components.core.measures import corner_angles, quad_planarity
 from components.core.mesh import Corners, edge_topology, face_corners, face_sizes
 from components.core.types import Integers, Lines, Mesh, Numbers
 
 log = logging.getLogger(__name__)
 
 __all__ = [
-    "ConicalAnalysisResult",
+    "AnalysisResult",
     "ConicalCheck",
     "ConeFit",
     "Offset",
-    "OffsetMeshResult",
-    "conical_analysis",
+    "OffsetResult",
+    "analysis",
     "conical_check",
     "conical_criterion",
     "cone_fit",
     "face_offset",
     "face_planes",
     "node_axes",
-    "offset_mesh",
+    "offset",
     "vertex_offset",
 ]
 
@@ -73,30 +77,6 @@ def _regular_stars(C: Corners, n: int) -> tuple[np.ndarray, np.ndarray]:
         cur = succ[cur]
     ok = cur == ring[:, 0]
     return cand[ok], ring[ok]
-
-
-def _corner_angles(V: np.ndarray, C: Corners) -> np.ndarray:
-    a = V[C.prev] - V[C.v]
-    b = V[C.next] - V[C.v]
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
-
-
-def _quad_planarity(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Scale-free planarity of quads (distance between the diagonals / mean diagonal); 0 for other faces."""
-    sizes = face_sizes(F)
-    out = np.zeros(len(F))
-    q = np.nonzero(sizes == 4)[0]
-    if len(q) == 0:
-        return out
-    P = V[F[q, :4]]
-    d1, d2 = P[:, 2] - P[:, 0], P[:, 3] - P[:, 1]
-    cr = np.cross(d1, d2)
-    ncr = np.linalg.norm(cr, axis=1)
-    w = P[:, 1] - P[:, 0]
-    dist = np.abs(np.einsum("ij,ij->i", w, cr)) / np.maximum(ncr, 1e-300)
-    mean_diag = 0.5 * (np.linalg.norm(d1, axis=1) + np.linalg.norm(d2, axis=1))
-    out[q] = dist / np.maximum(mean_diag, 1e-300)
-    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -136,7 +116,7 @@ def conical_criterion(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
     F = np.asarray(F, dtype=np.int64)
     C = face_corners(F)
     verts, ring = _regular_stars(C, len(V))
-    ang = _corner_angles(V, C)
+    ang = corner_angles(V, F)
     A = ang[ring]
     return verts, A[:, 0] - A[:, 1] + A[:, 2] - A[:, 3]
 
@@ -310,8 +290,6 @@ def conical_check(V: np.ndarray, F: np.ndarray, tol: float = 1e-4,
     >>> bool(conical_check(*quad_grid(3, 3)).passed.all())
     True
     """
-    from components.metrics.quality import quad_planarity
-
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     n = len(V)
@@ -347,7 +325,7 @@ def _face_normals_lsq(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
         cen = P.mean(axis=1)
         Q = P - cen[:, None, :]
         # Newell vector for the orientation
-        newell = 0.5 * np.cross(P, np.roll(P, -1, axis=1)).sum(axis=1)
+        newell = 0.5 * np.cross(Q, np.roll(Q, -1, axis=1)).sum(axis=1)  # centred: no cancellation far out
         if s == 3:
             nrm = newell
         else:
@@ -415,16 +393,6 @@ def _offset_report(V, F, X, d, N, c, C):
     return Offset(X, F, axes, face_error, vertex_residual, E, cop)
 
 
-def _check_distance(d):
-    try:
-        d = float(d)
-    except (TypeError, ValueError):
-        raise InputError("distance", f"must be a number, got {d!r}") from None
-    if not np.isfinite(d):
-        raise InputError("distance", f"must be finite, got {d}")
-    return d
-
-
 def face_offset(V: np.ndarray, F: np.ndarray, d: float, rcond: float = 1e-6) -> Offset:
     """Face offset: every face plane moved by ``d`` along its unit normal, vertices at the planes' intersection.
 
@@ -466,10 +434,12 @@ def face_offset(V: np.ndarray, F: np.ndarray, d: float, rcond: float = 1e-6) -> 
     >>> bool(np.allclose(off.V[:, 2], 0.5)), float(off.face_error.max()) < 1e-12
     (True, True)
     """
-    V = np.asarray(V, dtype=np.float64)
+    V0 = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    d = _check_distance(d)
-    n = len(V)
+    d = check_number(d, "distance")
+    n = len(V0)
+    centre = 0.5 * (V0.min(axis=0) + V0.max(axis=0)) if n else np.zeros(3)
+    V = V0 - centre  # plane offsets c = n·x of a far-placed model lose digits: solve about the centre
     N, c = _face_normals_lsq(V, F)
     C = face_corners(F)
     X = V.copy()
@@ -485,7 +455,8 @@ def face_offset(V: np.ndarray, F: np.ndarray, d: float, rcond: float = 1e-6) -> 
             X0 = X0 + np.einsum("gjk,gk->gj", pinv, r)
         X[verts] = X0
     _fit_boundary(V, F, X, N, C, count=np.bincount(C.v, minlength=n))
-    return _offset_report(V, F, X, d, N, c, C)
+    off = _offset_report(V, F, X, d, N, c, C)
+    return off._replace(V=off.V + centre, axes=off.axes + centre)
 
 
 def _fit_boundary(V, F, X, N, C, count, reg: float = 1e-7):
@@ -497,9 +468,6 @@ def _fit_boundary(V, F, X, N, C, count, reg: float = 1e-7):
     pull ``reg`` towards the start point. For a conical mesh the minimum is 0: the offset boundary polygons are
     parallel and the node axes at the two ends of every boundary edge are coplanar. Modifies ``X`` in place.
     """
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
-
     few = np.nonzero((count >= 1) & (count <= 2))[0]
     if len(few) == 0:
         return
@@ -583,7 +551,7 @@ def vertex_offset(V: np.ndarray, F: np.ndarray, d: float) -> Offset:
     """
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    d = _check_distance(d)
+    d = check_number(d, "distance")
     N, c = _face_normals_lsq(V, F)
     C = face_corners(F)
     S = np.zeros_like(V)
@@ -597,18 +565,12 @@ def vertex_offset(V: np.ndarray, F: np.ndarray, d: float) -> Offset:
 # published components
 
 
-def _mesh_input(mesh, kind="any"):
-    if not (isinstance(mesh, (tuple, list)) and len(mesh) == 2):
-        raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
-    return validate_mesh(mesh[0], mesh[1], name="mesh", kind=kind)
-
-
 def _axis_length(V, F):
     E = edge_topology(F).E
     return float(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1).mean()) if len(E) else 1.0
 
 
-class ConicalAnalysisResult(NamedTuple):
+class AnalysisResult(NamedTuple):
     criterion: Numbers
     checked: Integers
     failed: Integers
@@ -622,7 +584,7 @@ class ConicalAnalysisResult(NamedTuple):
     warnings: list[str]
 
 
-def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResult:
+def analysis(mesh: Mesh, tolerance: float = 1e-4) -> AnalysisResult:
     """Check whether a planar-quad mesh is conical: angle criterion, cone-normal deviation and node axes.
 
     Parameters
@@ -675,12 +637,11 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
     Example
     -------
     >>> from components.core.mesh import quad_grid
-    >>> conical_analysis(quad_grid(3, 3)).is_conical
+    >>> analysis(quad_grid(3, 3)).is_conical
     True
     """
-    V, F = _mesh_input(mesh)
-    if not np.isfinite(tolerance) or tolerance < 0:
-        raise InputError("tolerance", f"must be a finite number >= 0, got {tolerance}")
+    V, F = check_mesh(mesh, "mesh")
+    tolerance = check_number(tolerance, "tolerance", 0)
     warnings: list[str] = []
     chk = conical_check(V, F, tol=tolerance)
     crit = np.nan_to_num(chk.criterion, nan=0.0)
@@ -691,7 +652,7 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
     fit = cone_fit(V, F)
     nfaces = np.bincount(face_corners(F).v, minlength=len(V))
     dev_ok = nfaces >= 3
-    planarity = _quad_planarity(V, F)
+    planarity = np.where(face_sizes(F) == 4, quad_planarity(V, F), 0.0)  # quads only, as documented
     max_pl = float(planarity.max()) if len(planarity) else 0.0
     if max_pl > tolerance:
         warnings.append(
@@ -704,7 +665,7 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
     L = _axis_length(V, F)
     lines = np.stack([V, V + L * fit.axis], axis=1)
     max_crit = chk.max_criterion
-    return ConicalAnalysisResult(
+    return AnalysisResult(
         criterion=crit,
         checked=checked.astype(np.int64),
         failed=failed.astype(np.int64),
@@ -719,7 +680,7 @@ def conical_analysis(mesh: Mesh, tolerance: float = 1e-4) -> ConicalAnalysisResu
     )
 
 
-class OffsetMeshResult(NamedTuple):
+class OffsetResult(NamedTuple):
     offset: Mesh
     node_axes: Lines
     face_error: Numbers
@@ -729,7 +690,7 @@ class OffsetMeshResult(NamedTuple):
     warnings: list[str]
 
 
-def offset_mesh(mesh: Mesh, distance: float = 0.1, method: str = "face") -> OffsetMeshResult:
+def offset(mesh: Mesh, distance: float = 0.1, method: str = "face") -> OffsetResult:
     """Offset a (conical) mesh at a constant distance, with node axes and the offset error.
 
     Parameters
@@ -775,16 +736,15 @@ def offset_mesh(mesh: Mesh, distance: float = 0.1, method: str = "face") -> Offs
     Example
     -------
     >>> from components.core.mesh import quad_grid
-    >>> res = offset_mesh(quad_grid(2, 2), distance=0.25)
+    >>> res = offset(quad_grid(2, 2), distance=0.25)
     >>> bool(res.max_face_error < 1e-12)
     True
     """
-    V, F = _mesh_input(mesh)
-    d = _check_distance(distance)
+    V, F = check_mesh(mesh, "mesh")
+    d = check_number(distance, "distance")
     if d == 0:
         raise InputError("distance", "must be non-zero")
-    if method not in ("face", "vertex"):
-        raise InputError("method", f"unknown offset method {method!r} (use 'face' or 'vertex')")
+    check_choice(method, "method", ("face", "vertex"))
     warnings: list[str] = []
     off = face_offset(V, F, d) if method == "face" else vertex_offset(V, F, d)
     max_err = float(off.face_error.max())
@@ -803,7 +763,7 @@ def offset_mesh(mesh: Mesh, distance: float = 0.1, method: str = "face") -> Offs
         warnings.append(
             f"the mesh is not conical ({why}): the offset faces are up to {max_err:.3g} from the distance {d:g}"
         )
-    return OffsetMeshResult(
+    return OffsetResult(
         offset=(off.V, F),
         node_axes=off.axes,
         face_error=off.face_error,

@@ -1,44 +1,47 @@
 """Conical optimization: planarity + conical angle criterion + closeness through the planarization solver.
 
-A candidate quad mesh laid along the curvature lines is nearly conical already; this module makes it exactly
-conical (Liu et al. 2006) with :func:`components.planarize.planarizer.planarize_mesh`, whose hard rows are the face planarity
-residuals and, with ``conical_weight > 0``, the angle criterion ``ω1 − ω2 + ω3 − ω4`` at every interior valence-4
-vertex, while its soft goals keep the mesh close to the design surface and fair. By default the solve is
-**polished** to near machine precision (planarity ~1e-10): a face offset at distance ``d`` needs the face planes
-to be exact, since a planarity ``p`` shows up as an offset error of about ``p`` × edge length, independent of
-``d``. The Gauss-Newton steps converge quadratically, so the polish costs a few more iterations.
+A candidate quad mesh laid along the curvature lines is nearly conical already; this module makes it exactly conical
+(Liu et al. 2006) with :func:`components.planarize.planarizer.planarize_mesh`, whose hard rows are the face
+planarity residuals and, with ``conical_weight > 0``, the angle criterion ``ω1 − ω2 + ω3 − ω4`` at every interior
+valence-4 vertex, while its soft goals keep the mesh close to the design surface and fair. By default the solve is
+**polished** to near machine precision (planarity ~1e-10): a face offset at distance ``d`` needs the face planes to
+be exact, since a planarity ``p`` shows up as an offset error of about ``p`` × edge length, independent of ``d``.
+The Gauss-Newton steps converge quadratically, so the polish costs a few more iterations.
 
 The conical verdict is :func:`components.conical.cones.conical_check` (cone fit of the face normals, tolerance widened
-by the local planarity; the angle criterion reported beside it).
+by the local planarity; the angle criterion reported beside it). "Converged" is a claim about fabricable panels too:
+the tolerance reached **and** the panels healthy by :func:`components.metrics.health.face_health` at the given bounds
+(20° corners, edges 0.2 × the median, faces 0.1 × the median area, no folds or crossings; with a reference also 85%
+coverage of it); otherwise a warning names what is wrong.
 
-Array-level: :func:`optimize_conical`. Published: :func:`conical_optimize`.
+Array-level: :func:`conical_mesh`. Published: :func:`optimize` (``conical/optimize``).
 """
 from __future__ import annotations
 
 import logging
-import math
 from typing import NamedTuple
 
 import numpy as np
 
 from components.conical.cones import conical_check, conical_criterion
-from components.core.checks import validate_mesh
-from components.core.errors import InputError, MeshError
+from components.core.checks import check_mesh, check_number, validate_mesh
 from components.core.mesh import edge_topology
-from components.core.types import Mesh, Numbers
+from components.core.types import Mesh, Numbers, Texts
+from components.metrics.health import face_health
+from components.planarize.planarizer import planarize_mesh
 
 log = logging.getLogger(__name__)
 
 __all__ = [
-    "ConicalOptimizeResult",
-    "ConicalOptimization",
-    "conical_optimize",
-    "optimize_conical",
+    "ConicalMesh",
+    "OptimizeResult",
+    "conical_mesh",
+    "optimize",
 ]
 
 
-class ConicalOptimization(NamedTuple):
-    """Result of :func:`optimize_conical`."""
+class ConicalMesh(NamedTuple):
+    """Result of :func:`conical_mesh`: the conical mesh and how well it is conical."""
 
     V: np.ndarray  # (n, 3) optimized vertices
     F: np.ndarray  # (m, k) faces (unchanged)
@@ -49,15 +52,19 @@ class ConicalOptimization(NamedTuple):
     max_closeness: float
     mean_edge_length: float
     iterations: int
-    converged: bool  # planarity and criterion within the tolerance
+    converged: bool  # planarity and criterion within the tolerance, and the panels healthy
     worst_corner_angle: float  # degrees
+    healthy: bool  # face_health at the bounds (planarity at the tolerance)
+    coverage: float  # covered share of the reference, 0..1 (NaN without one)
+    violations: list  # face_health's lines
     warnings: list
 
 
-def optimize_conical(V, F, reference=None, *, closeness_weight: float = 1.0, fairness_weight: float = 0.01,
-                     tolerance: float = 1e-4, polish: bool = True, boundary: str = "free",
-                     max_iterations: int = 100, time_budget: float = 30.0,
-                     mesh_name: str = "mesh") -> ConicalOptimization:
+def conical_mesh(V, F, reference=None, *, closeness_weight: float = 1.0, fairness_weight: float = 0.01,
+                 tolerance: float = 1e-4, polish: bool = True, boundary: str = "free",
+                 max_iterations: int = 100, time_budget: float = 30.0, mesh_name: str = "mesh",
+                 min_angle: float = 20.0, min_edge_ratio: float = 0.2, min_area_ratio: float = 0.1,
+                 min_coverage: float = 0.85) -> ConicalMesh:
     """Make a quad mesh conical and planar while it stays close to a reference surface.
 
     Parameters
@@ -85,10 +92,14 @@ def optimize_conical(V, F, reference=None, *, closeness_weight: float = 1.0, fai
         Wall-clock budget in seconds.
     mesh_name : str
         Name of the mesh in error messages.
+    min_angle, min_edge_ratio, min_area_ratio, min_coverage : float
+        Panel-health bounds (:func:`components.metrics.health.face_health`), guarded by the solver and checked on
+        the result.
 
     Returns
     -------
-    ConicalOptimization
+    ConicalMesh
+        ``converged`` when planarity and criterion are within ``tolerance`` and the panels are ``healthy``.
 
     Raises
     ------
@@ -101,43 +112,49 @@ def optimize_conical(V, F, reference=None, *, closeness_weight: float = 1.0, fai
     -----
     Liu, Pottmann, Wallner, Yang, Wang, *Geometric modeling with conical meshes and developable surfaces*,
     SIGGRAPH 2006 (the angle criterion as a constraint); Tang, Sun, Gomes, Wallner, Pottmann, *Form-finding with
-    polyhedral meshes made simple*, SIGGRAPH 2014 (the guided projection solver of :mod:`components.planarize.planarizer`).
+    polyhedral meshes made simple*, SIGGRAPH 2014 (the guided projection solver of
+    :mod:`components.planarize.planarizer`).
     """
-    from components.planarize.planarizer import planarize_mesh
-
-    tol = float(tolerance)
-    if not math.isfinite(tol) or tol <= 0:
-        raise InputError("tolerance", f"must be a positive number, got {tolerance!r}")
+    tol = check_number(tolerance, "tolerance", 0, above=True)
     V, F = validate_mesh(V, F, name=mesh_name)
+    bounds = dict(min_angle=min_angle, min_edge_ratio=min_edge_ratio, min_area_ratio=min_area_ratio)
     res = planarize_mesh(V, F, reference, closeness_weight=closeness_weight, fairness_weight=fairness_weight,
                          conical_weight=1.0, boundary=boundary, tolerance=min(tol, 1e-10) if polish else tol,
-                         max_iterations=max_iterations, time_budget=time_budget, mesh_name=mesh_name)
+                         max_iterations=max_iterations, time_budget=time_budget, mesh_name=mesh_name,
+                         min_coverage=min_coverage, **bounds)
     X = res.mesh[0]
-    warnings = [w for w in res.warnings if not (polish and w.startswith("tolerance not reached"))]
+    # the solver's verdict is at the polish tolerance: the health verdict below is at ``tolerance``
+    warnings = [w for w in res.warnings
+                if not (polish and w.startswith("tolerance not reached")) and not w.startswith("panels not healthy")]
     _, crit = conical_criterion(X, F)
     max_crit = float(np.abs(crit).max()) if len(crit) else 0.0
     chk = conical_check(X, F, tol)
     max_dev = float(chk.deviation[chk.checked].max()) if chk.checked.any() else 0.0
     E = edge_topology(F).E
     L = float(np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1).mean())
-    converged = res.max_planarity <= tol and max_crit <= tol
+    health = face_health(X, F, reference, tolerance=tol, min_coverage=min_coverage, name=mesh_name, **bounds)
+    reached = res.max_planarity <= tol and max_crit <= tol
     if not len(crit):
         warnings.append("no interior valence-4 vertex: the conical criterion constrains nothing")
-    if not converged:
+    if not reached:
         warnings.append(f"conical optimization did not reach {tol:g} ({res.stop_reason}): max planarity "
                         f"{res.max_planarity:.2e}, max angle criterion {max_crit:.2e} rad")
     elif polish and (res.max_planarity > 1e-8 or max_crit > 1e-7):
         warnings.append(f"the polish stopped at planarity {res.max_planarity:.1e} / criterion {max_crit:.1e} "
                         f"({res.stop_reason}): face offsets are exact only to about planarity × edge length")
-    return ConicalOptimization(X, F, res.max_planarity, max_crit, max_dev, res.mean_closeness, res.max_closeness,
-                               L, res.iterations, bool(converged), res.worst_corner_angle, warnings)
+    shape = [line for line in health.violations if "not planar" not in line]
+    if shape:
+        warnings.append("panels not healthy: " + "; ".join(shape))
+    return ConicalMesh(X, F, res.max_planarity, max_crit, max_dev, res.mean_closeness, res.max_closeness,
+                       L, res.iterations, bool(reached and health.healthy), res.worst_corner_angle, bool(health.healthy),
+                       float(health.coverage), list(health.violations), warnings)
 
 
 # ----------------------------------------------------------------------------------------------
 # published component
 
 
-class ConicalOptimizeResult(NamedTuple):
+class OptimizeResult(NamedTuple):
     optimized: Mesh
     max_planarity: float
     max_criterion: float
@@ -147,13 +164,15 @@ class ConicalOptimizeResult(NamedTuple):
     relative_closeness: float
     is_conical: bool
     iterations: int
+    healthy: bool
+    coverage: float
+    violations: Texts
     warnings: list[str]
 
 
-def conical_optimize(mesh: Mesh, reference: Mesh | None = None, closeness_weight: float = 1.0,
-                     fairness_weight: float = 0.01, tolerance: float = 1e-4, polish: bool = True,
-                     boundary: str = "free", max_iterations: int = 100,
-                     time_budget: float = 30.0) -> ConicalOptimizeResult:
+def optimize(mesh: Mesh, reference: Mesh | None = None, closeness_weight: float = 1.0,
+             fairness_weight: float = 0.01, tolerance: float = 1e-4, polish: bool = True,
+             boundary: str = "free", max_iterations: int = 100, time_budget: float = 30.0) -> OptimizeResult:
     """Optimize a quad mesh into a conical mesh: planar faces, angle criterion at every vertex, close to the surface.
 
     Parameters
@@ -194,9 +213,16 @@ def conical_optimize(mesh: Mesh, reference: Mesh | None = None, closeness_weight
     relative_closeness : float
         Mean closeness divided by the mean edge length.
     is_conical : bool
-        Planarity and criterion within the tolerance.
+        Planarity and criterion within the tolerance, and the panels healthy.
     iterations : int
         Solver iterations.
+    healthy : bool
+        No panel defect (corners of 20° to 160°, edges over 0.2 × the median, faces over 0.1 × the median area, no
+        folds or crossings, planarity within the tolerance; with a reference 85% of it covered).
+    coverage : float
+        Share of the reference covered by the result, 0..1; -1 without a reference.
+    violations : Texts
+        One line per failed health check, with the count and the worst value.
 
     Raises
     ------
@@ -208,28 +234,23 @@ def conical_optimize(mesh: Mesh, reference: Mesh | None = None, closeness_weight
     Notes
     -----
     Liu et al. 2006 (conical meshes); Tang et al. 2014 (guided projection). The face offset of the result at a
-    distance ``d`` keeps every face plane at ``d`` (see :func:`components.conical.cones.offset_mesh`).
+    distance ``d`` keeps every face plane at ``d`` (see :func:`components.conical.cones.offset`).
 
     Example
     -------
     >>> from components.core.mesh import quad_grid
-    >>> conical_optimize(quad_grid(3, 3)).is_conical
+    >>> optimize(quad_grid(3, 3)).is_conical
     True
     """
-    if not (isinstance(mesh, (tuple, list)) and len(mesh) >= 2):
-        raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
-    ref = None
-    if reference is not None:
-        if not (isinstance(reference, (tuple, list)) and len(reference) >= 2):
-            raise MeshError("reference", "expected a (V, F) tuple of vertices and faces")
-        ref = (reference[0], reference[1])
-    res = optimize_conical(mesh[0], mesh[1], ref, closeness_weight=closeness_weight,
-                           fairness_weight=fairness_weight, tolerance=tolerance, polish=bool(polish),
-                           boundary=boundary, max_iterations=max_iterations, time_budget=time_budget)
+    V, F = check_mesh(mesh, "mesh")
+    ref = None if reference is None else check_mesh(reference, "reference", manifold=False)
+    res = conical_mesh(V, F, ref, closeness_weight=closeness_weight, fairness_weight=fairness_weight,
+                       tolerance=tolerance, polish=bool(polish), boundary=boundary, max_iterations=max_iterations,
+                       time_budget=time_budget)
     verts, crit = conical_criterion(res.V, res.F)
     c = np.zeros(len(res.V))
     c[verts] = np.abs(crit)
-    return ConicalOptimizeResult(
+    return OptimizeResult(
         optimized=(res.V, res.F),
         max_planarity=res.max_planarity,
         max_criterion=res.max_criterion,
@@ -239,5 +260,8 @@ def conical_optimize(mesh: Mesh, reference: Mesh | None = None, closeness_weight
         relative_closeness=res.mean_closeness / max(res.mean_edge_length, 1e-300),
         is_conical=res.converged,
         iterations=res.iterations,
+        healthy=res.healthy,
+        coverage=-1.0 if np.isnan(res.coverage) else res.coverage,
+        violations=list(res.violations),
         warnings=res.warnings,
     )

@@ -291,7 +291,8 @@ def validate_mesh(
         if rep.any():
             i = int(np.argmax(rep))
             raise MeshError(name, f"face {i} repeats a vertex: {F[i].tolist()}")
-        area = np.linalg.norm(face_normals(V, F, unit=False), axis=1)
+        # centred first: at site coordinates (+5e6) the corner cross products would lose the area to round-off
+        area = np.linalg.norm(face_normals(V - V.mean(axis=0), F, unit=False), axis=1)
         scale = bounding_box_diagonal(V)
         tiny = area <= (1e-14 * scale * scale if scale > 0 else 0.0)
         if tiny.any():

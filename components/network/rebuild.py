@@ -19,6 +19,9 @@ A curvature-line network (two families of polylines traced on a triangle mesh, s
    along the diagonal joining them, which restores the missing piece of line.
 5. **Back to 3D.** Every node is located in the planar triangulation and mapped back with its barycentric
    coordinates: the candidate lies on the input surface.
+6. **Healing** (``boundary_cells="extend"``, the strategy's default): the boundary cells and the larger cells are kept and the
+   cell complex is healed in the plane (:mod:`components.network.healing`), so the panels reach the design boundary
+   with no short edge, flat, sharp or reflex corner, tiny cell or hole.
 
 Array-level functions: :func:`plane_map`, :func:`network_to_plane`, :func:`network_crossings`,
 :func:`rebuild_from_network`. The published component :func:`quad_rebuild` lives here too (it traces the network
@@ -38,10 +41,18 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from components.core.errors import InputError, MeshError
-from components.core.mesh import boundary_loops, edge_topology, face_sizes
+from components.core.checks import check_choice, check_number
+from components.core.conformal import disk_map, lscm
+from components.core.errors import MeshError
+from components.core.mesh import boundary_loops, edge_topology, face_sizes, pad_faces
+from components.core.proximity import TriangleIndex
+from components.core.types import Curves, Mesh, Numbers
+from components.network.healing import NODE_BOUNDARY, NODE_CORNER, NODE_CROSSING, healed_cells, manifold_cells
+from components.network.tracing import network_for_mesh, principal_angle_error
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +67,8 @@ __all__ = [
     "uv_to_surface",
 ]
 
-NODE_CROSSING, NODE_BOUNDARY, NODE_CORNER = 0, 1, 2
+PLANE_MAPS = ("lscm", "disk")
+BOUNDARY_CELLS = ("extend", "trim", "keep")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -66,6 +78,30 @@ NODE_CROSSING, NODE_BOUNDARY, NODE_CORNER = 0, 1, 2
 def _signed_areas(UV, T):
     a, b, c = UV[T[:, 0]], UV[T[:, 1]], UV[T[:, 2]]
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+def _check_disk(V, T, loops):
+    """Refuse a mesh that is not one topological disk (one component, one boundary loop, Euler characteristic 1),
+    with the wording of the disk map's check in :mod:`components.core.conformal`."""
+    n = len(V)
+    if not loops:
+        raise MeshError("mesh", "the surface is closed (no boundary): a disk map needs exactly one boundary loop")
+    used = np.zeros(n, dtype=bool)
+    used[T.ravel()] = True
+    A = sp.coo_matrix((np.ones(2 * len(T)), (np.r_[T[:, 0], T[:, 1]], np.r_[T[:, 1], T[:, 2]])), shape=(n, n))
+    labels = connected_components(A, directed=False)[1]
+    comps = len(np.unique(labels[used]))
+    if comps > 1:
+        raise MeshError("mesh", f"the mesh has {comps} connected components; map each one")
+    chi = int(used.sum()) - len(edge_topology(T).E) + len(T)
+    if len(loops) != 1 or chi != 1:
+        genus = (2 - chi - len(loops)) // 2
+        raise MeshError(
+            "mesh",
+            f"not a topological disk ({len(loops)} boundary loops, genus {genus}, Euler characteristic {chi}): "
+            "a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles "
+            "several boundary loops",
+        )
 
 
 def plane_map(V: np.ndarray, T: np.ndarray, method: str = "lscm") -> tuple[np.ndarray, list[str]]:
@@ -93,13 +129,9 @@ def plane_map(V: np.ndarray, T: np.ndarray, method: str = "lscm") -> tuple[np.nd
     MeshError
         No boundary, several boundary loops or handles (not a disk), several components (named ``mesh``).
     """
-    from components.core.conformal import _check_disk, disk_map, lscm
-
-    if method not in ("lscm", "disk"):
-        raise InputError("method", f"unknown plane map {method!r} (use 'lscm' or 'disk')")
+    check_choice(method, "method", PLANE_MAPS)
     warnings: list[str] = []
-    loops = boundary_loops(T)
-    _check_disk(V, T, loops)
+    _check_disk(V, T, boundary_loops(T))
     UV = None
     if method == "lscm":
         UV = lscm(V, T)
@@ -218,8 +250,6 @@ def network_to_plane(V, T, UV, lines, max_segment: float) -> tuple[list[np.ndarr
     index : list of int
         Index of the input polyline each output came from.
     """
-    from components.core.proximity import TriangleIndex
-
     lines = [np.asarray(L, dtype=np.float64).reshape(-1, 3) for L in lines]
     if not lines:
         return [], []
@@ -371,12 +401,12 @@ class _Boundary:
         """Smallest positive distance along the unit ray ``o + t r`` to the boundary (inf when none)."""
         d = self.Q - self.P
         den = _cross2(r[None, :], d)
-        ok = np.abs(den) > 1e-300
+        ok = np.abs(den) > 1e-14 * self.len  # not parallel (relative to the edge length)
         den = np.where(ok, den, 1.0)
         w = self.P - o[None, :]
         t = _cross2(w, d) / den
         u = _cross2(w, r[None, :]) / den
-        hit = ok & (t > 1e-12) & (u >= 0) & (u <= 1)
+        hit = ok & (t > 1e-12 * self.total) & (u >= 0) & (u <= 1)
         return float(t[hit].min()) if hit.any() else math.inf
 
     def point(self, s):
@@ -413,20 +443,22 @@ class Rebuild(NamedTuple):
     warnings: list
 
 
+def _find(parent, x):
+    """Root of ``x`` in a union-find forest (path halving)."""
+    while parent[x] != x:
+        parent[x] = parent[parent[x]]
+        x = parent[x]
+    return x
+
+
 def _union_find(n, pairs):
+    """Cluster representative (the smallest index of its cluster) of each of ``n`` items joined by ``pairs``."""
     parent = np.arange(n)
-
-    def find(x):
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
     for a, b in pairs:
-        ra, rb = find(a), find(b)
+        ra, rb = _find(parent, a), _find(parent, b)
         if ra != rb:
             parent[max(ra, rb)] = min(ra, rb)
-    return np.array([find(x) for x in range(n)], dtype=np.int64)
+    return np.array([_find(parent, x) for x in range(n)], dtype=np.int64)
 
 
 def _arc_point(pts, frac=0.3):
@@ -471,6 +503,274 @@ def _trace_faces(nuv, edges, dirs_out, dirs_in):
     return faces
 
 
+# ---- step 1-2: the plane scale and the naked ends
+
+
+def _plane_scale(V, T, UV):
+    """3D length per plane length: the square root of the ratio of the surface's area to its image's."""
+    a3 = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
+    a2 = np.abs(_signed_areas(UV, T))
+    return math.sqrt(a3.sum() / max(a2.sum(), 1e-300))
+
+
+def _end_extension(pts, bnd, h_uv, gap, eps_b):
+    """Points extending the polyline ``pts`` straight from its last point to the boundary (``None`` when the end
+    is on the boundary already, has no direction, or is more than ``gap`` panels from the boundary)."""
+    _, dist, _ = bnd.project(pts[-1:])
+    if dist[0] <= eps_b:
+        return None
+    # end direction over the last quarter panel
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    cum = np.cumsum(seg[::-1])
+    k = int(min(np.searchsorted(cum, 0.25 * h_uv) + 1, len(seg)))
+    r = pts[-1] - pts[-1 - k]
+    nr = np.linalg.norm(r)
+    if nr <= 0:
+        return None
+    r = r / nr
+    t = bnd.ray(pts[-1], r)
+    if not t <= gap * h_uv:
+        return None
+    return _resample(np.vstack([pts[-1], pts[-1] + t * r]), 0.25 * h_uv)[1:]
+
+
+def _extend_naked_ends(L, bnd, h_uv, gap, eps_b):
+    """Extend the naked ends of one family's plane polylines ``L`` to the boundary where the gap is small.
+
+    An extension may not run along another line of the family (closer than a quarter panel). Returns the new
+    polylines and the number of extended ends; the other naked ends are trimmed later.
+    """
+    own_id = np.concatenate([np.full(len(q), i) for i, q in enumerate(L)]) if L else np.zeros(0, np.int64)
+    tree = cKDTree(np.concatenate(L)) if L else None
+    out, extended = [], 0
+    for i, q in enumerate(L):
+        for end in (0, 1):
+            pts = q if end == 1 else q[::-1]
+            ext = _end_extension(pts, bnd, h_uv, gap, eps_b)
+            if ext is None:
+                continue
+            hits = tree.query_ball_point(ext, 0.25 * h_uv)
+            if any(own_id[j] != i for hs in hits for j in hs):
+                continue
+            pts = np.vstack([pts, ext])
+            extended += 1
+            q = pts if end == 1 else pts[::-1]
+        out.append(q)
+    return out, extended
+
+
+# ---- step 4: the arrangement (nodes, edges, merges, cells)
+
+
+class _Nodes(NamedTuple):
+    """Nodes of the arrangement: crossings first, then boundary ends, then boundary corners."""
+
+    uv: np.ndarray  # (nn, 2) plane positions
+    kind: np.ndarray  # (nn,) NODE_CROSSING, NODE_BOUNDARY or NODE_CORNER
+    per_line: list  # per family, per polyline: [(parameter along it, node)]
+    boundary: list  # [(boundary arc-length parameter, node)]
+    trimmed: int  # naked ends (off the boundary) after a crossing: their piece beyond it is left out
+
+
+def _network_nodes(fam, bnd, crossings, eps_b, corner_angle) -> _Nodes:
+    """Crossings, line ends on the boundary and boundary corners (turns sharper than ``corner_angle`` degrees)."""
+    ia, sa, ib, sb, P = crossings
+    node_uv = [P]
+    node_kind = [np.zeros(len(P), np.int64)]
+    per_line = [[[] for _ in fam[0]], [[] for _ in fam[1]]]  # (param, node)
+    for c in range(len(P)):
+        per_line[0][ia[c]].append((sa[c], c))
+        per_line[1][ib[c]].append((sb[c], c))
+    nn = len(P)
+    bnodes = []  # (boundary param, node)
+    trimmed = 0
+    for f, L in enumerate(fam):
+        for i, q in enumerate(L):
+            ends = bnd.project(q[[0, -1]])
+            for e, par in ((0, 0.0), (1, float(len(q) - 1))):
+                if ends[1][e] <= eps_b * 10:
+                    node_uv.append(ends[0][e:e + 1])
+                    node_kind.append(np.array([NODE_BOUNDARY]))
+                    per_line[f][i].append((par, nn))
+                    bnodes.append((ends[2][e], nn))
+                    nn += 1
+                elif per_line[f][i]:
+                    trimmed += 1
+    P0 = bnd.P
+    a_in = P0 - np.roll(P0, 1, axis=0)
+    a_out = np.roll(P0, -1, axis=0) - P0
+    turn = np.abs(np.arctan2(_cross2(a_in, a_out), np.einsum("ij,ij->i", a_in, a_out)))
+    for k in np.nonzero(turn > math.radians(corner_angle))[0]:
+        node_uv.append(P0[k:k + 1])
+        node_kind.append(np.array([NODE_CORNER]))
+        bnodes.append((bnd.cum[k], nn))
+        nn += 1
+    return _Nodes(np.concatenate(node_uv), np.concatenate(node_kind), per_line, bnodes, trimmed)
+
+
+def _network_edges(fam, nodes: _Nodes, bnd):
+    """Edges between consecutive nodes along every line and along the boundary.
+
+    Returns ``edges`` (e, 2) int64, their plane polylines (list of (k, 2)) and ``family`` (e,) int64 (0, 1 the
+    line families, 2 the boundary).
+    """
+    nuv = nodes.uv
+    edges, polys, efam = [], [], []
+    for f, L in enumerate(fam):
+        for i, q in enumerate(L):
+            lst = sorted(nodes.per_line[f][i])
+            for (s0, n0), (s1, n1) in zip(lst[:-1], lst[1:]):
+                if n0 == n1:
+                    continue
+                k0, k1 = int(math.floor(s0)), int(math.floor(s1))
+                inner = q[k0 + 1:k1 + 1] if k1 >= k0 + 1 else np.zeros((0, 2))
+                edges.append((n0, n1))
+                polys.append(np.vstack([nuv[n0], inner, nuv[n1]]))
+                efam.append(f)
+    bnodes = sorted(nodes.boundary)
+    for (s0, n0), (s1, n1) in zip(bnodes, bnodes[1:] + bnodes[:1]):
+        if n0 == n1 or len(bnodes) < 2:
+            continue
+        pts = bnd.arc(s0, s1)
+        pts[0], pts[-1] = nuv[n0], nuv[n1]
+        edges.append((n0, n1))
+        polys.append(pts)
+        efam.append(2)
+    return np.asarray(edges, np.int64).reshape(-1, 2), polys, np.asarray(efam, np.int64)
+
+
+def _merge_boundary_ends(X, edges, kind, tol):
+    """Merge every boundary end into the crossing it is joined to by an edge shorter than ``tol`` (3D).
+
+    Returns ``head`` (nn,) the node every node is merged into (the cluster's corner, else its crossing, else its
+    smallest index; line edges keep their directions) and the new ``kind`` (a crossing that took a boundary end
+    in is on the boundary now).
+    """
+    nn = len(kind)
+    elen = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
+    isx = kind == NODE_CROSSING
+    isend = kind == NODE_BOUNDARY
+    short = (elen < tol) & ((isx[edges[:, 0]] & isend[edges[:, 1]]) | (isend[edges[:, 0]] & isx[edges[:, 1]]))
+    rep = _union_find(nn, [tuple(e) for e in edges[short][np.argsort(elen[short])]])
+    rank = np.where(kind == NODE_CORNER, 0, np.where(kind == NODE_CROSSING, 1, 2))
+    order = np.lexsort((np.arange(nn), rank, rep))
+    first = np.r_[True, rep[order][1:] != rep[order][:-1]]
+    head_of_rep = dict(zip(rep[order][first].tolist(), order[first].tolist()))
+    head = np.array([head_of_rep[r] for r in rep.tolist()], dtype=np.int64)
+    kind = kind.copy()
+    merged_b = head[(kind == NODE_BOUNDARY) & (head != np.arange(nn))]
+    kind[merged_b[kind[merged_b] == NODE_CROSSING]] = NODE_BOUNDARY
+    return head, kind
+
+
+def _kept_edges(E, efam, nn):
+    """Indices (sorted) of the edges to keep: no loops, one edge per node pair (the boundary edge, else the
+    first), none hanging at a node of degree 1 (pruned repeatedly)."""
+    key = np.minimum(E[:, 0], E[:, 1]) * nn + np.maximum(E[:, 0], E[:, 1])
+    pref = np.where(efam == 2, 0, 1)
+    idx = np.nonzero(E[:, 0] != E[:, 1])[0]
+    idx = idx[np.lexsort((pref[idx], key[idx]))]
+    uniq = np.r_[True, key[idx][1:] != key[idx][:-1]]
+    sel = np.sort(idx[uniq])
+    alive = np.ones(len(sel), bool)
+    Es = E[sel]
+    while True:
+        deg = np.bincount(Es[alive].ravel(), minlength=nn)
+        dang = alive & ((deg[Es[:, 0]] == 1) | (deg[Es[:, 1]] == 1))
+        if not dang.any():
+            break
+        alive &= ~dang
+    return sel[alive]
+
+
+def _cells(nuv, E, polys, max_face_size):
+    """Bounded cells of the planar graph with 3 to ``max_face_size`` distinct corners (counter-clockwise).
+
+    Returns the cells, the number of dropped cells (too large or repeating a node) and the cells too large
+    (counter-clockwise node lists with distinct nodes).
+    """
+    # directions: from each end towards a point 30% along its polyline (after merging, from the merged node)
+    dout = np.array([_arc_point(p, 0.3) for p in polys]) - nuv[E[:, 0]]
+    din = np.array([_arc_point(p[::-1], 0.3) for p in polys]) - nuv[E[:, 1]]
+    faces, dropped, big = [], 0, []
+    for cyc in _trace_faces(nuv, E, dout, din):
+        if len(cyc) < 3 or len(set(cyc)) != len(cyc):
+            dropped += len(cyc) >= 3
+            continue
+        pu = nuv[cyc]
+        area = 0.5 * np.sum(_cross2(pu, np.roll(pu, -1, axis=0)))
+        if area <= 0:
+            continue  # the outer face (or an inverted sliver)
+        if len(cyc) > max_face_size:
+            big.append(cyc)
+            dropped += 1
+            continue
+        faces.append(cyc)
+    return faces, dropped, big
+
+
+def _arrangement_faces(nodes: _Nodes, edges, polys, efam, X, merge_tol, max_face_size, warnings, fill=False):
+    """Merge short boundary ends, clean the edges and trace the cells: ``(faces, big, kind, dropped)``.
+
+    ``big`` are the cells with more than ``max_face_size`` corners: left open (and reported) unless ``fill``, when
+    they are returned to be split. Appends what was done to ``warnings``; raises :class:`MeshError` when no cell
+    remains.
+    """
+    nn = len(nodes.kind)
+    head, kind = _merge_boundary_ends(X, edges, nodes.kind, merge_tol)
+    E = head[edges]
+    sel = _kept_edges(E, efam, nn)
+    if len(sel) == 0:
+        raise MeshError("mesh", "the line network forms no closed cell (panel size too large for the surface?)")
+    faces, dropped, big = _cells(nodes.uv, E[sel], [polys[i] for i in sel.tolist()], max_face_size)
+    faces, nsplit = _split_hexagons(faces, nodes.uv)
+    if nsplit:
+        warnings.append(f"{nsplit} hexagon(s) between two facing line ends (T-junctions) were split into two quads "
+                        "(the missing piece of line restored straight in the plane)")
+    if big and not fill:
+        warnings.append(f"{len(big)} cell(s) with more than {max_face_size} corners (holes in the network, e.g. "
+                        "skipped umbilic regions or stopped lines) were left open")
+    if not faces and not (fill and big):
+        raise MeshError("mesh", "the line network forms no cell with at most "
+                                f"{max_face_size} corners (panel size too large for the surface?)")
+    return faces, big if fill else [], kind, dropped
+
+
+def _healed(faces, nuv, X, kind, V, T, UV, bnd, warnings):
+    """Heal the cells (:func:`components.network.healing.healed_cells`): ``(faces, uv, X, kind)``; appends what
+    was done to ``warnings``."""
+    loc = _Locator(UV, T)
+
+    def lift(P):
+        f, B = loc.locate(P)
+        return np.einsum("pk,pkj->pj", B, V[T[f]])
+
+    h = healed_cells(faces, nuv, X, kind, lift, lambda P: bnd.project(P)[0])
+    done = []
+    if h.collapsed:
+        done.append(f"{h.collapsed} short edge(s) or sharp/tiny cell(s) collapsed")
+    if h.dropped_nodes:
+        done.append(f"{h.dropped_nodes} flat node(s) dropped")
+    if h.split:
+        done.append(f"{h.split} cell(s) with flat corners or too many corners (T-junctions, holes of the network) "
+                    "split along diagonals")
+    if done:
+        warnings.append("boundary and irregular cells extended to the design boundary and healed: " + "; ".join(done))
+    if h.left_open:
+        warnings.append(f"{h.left_open} cell(s) could not be split into panels with at most 5 corners and were left "
+                        "open (holes)")
+    return h.faces, h.uv, h.X, h.kind
+
+
+def _boundary_edges(faces):
+    """The boundary edges ``{(a, b) : a < b}`` of a list of faces."""
+    topo = edge_topology(pad_faces(faces))
+    return set(map(tuple, np.sort(topo.E[topo.count == 1], axis=1).tolist()))
+
+
+# ---- the rebuild
+
+
 def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap: float = 1.0,
                          merge: float = 0.1, max_face_size: int = 6, corner_angle: float = 35.0,
                          plane: str = "lscm", boundary_cells: str = "trim") -> Rebuild:
@@ -500,11 +800,15 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
         Boundary turns sharper than this (degrees, in the plane) become nodes (corners of the candidate).
     plane : {"lscm", "disk"}
         Plane map used when ``UV`` is absent.
-    boundary_cells : {"trim", "keep"}
+    boundary_cells : {"extend", "trim", "keep"}
+        ``"extend"``: every cell is kept and healed (:func:`components.network.healing.healed_cells`): short edges
+        collapsed, flat nodes dropped, cells with flat or reflex corners and holes of the network split along
+        diagonals, sharp or tiny cells collapsed, four-face nodes far from conical given three or five faces — the
+        candidate covers the surface up to its boundary with healthy panels (quads, triangles, pentagons);
         ``"trim"``: boundary triangles and pentagons (two boundary nodes and one or three crossings, where the
         boundary cuts a cell's corner) are dropped, so the candidate is nearly all quads, every line edge keeps its
-        direction and no boundary vertex has four faces; ``"keep"``: they are kept (the candidate covers the surface
-        up to its boundary, with triangles and pentagons there).
+        direction and no boundary vertex has four faces; ``"keep"``: they are kept as traced (the candidate covers
+        the surface up to its boundary, with triangles and pentagons there).
 
     Returns
     -------
@@ -521,223 +825,49 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     """
     V = np.asarray(V, np.float64)
     T = np.asarray(T, np.int64)
-    h = float(panel_size)
-    if not (math.isfinite(h) and h > 0):
-        raise InputError("panel_size", f"must be a positive number, got {panel_size!r}")
-    if boundary_cells not in ("trim", "keep"):
-        raise InputError("boundary_cells", f"must be 'trim' or 'keep', got {boundary_cells!r}")
+    h = check_number(panel_size, "panel_size", 0, above=True)
+    check_choice(boundary_cells, "boundary_cells", BOUNDARY_CELLS)
     warnings: list[str] = []
     if UV is None:
         UV, w = plane_map(V, T, plane)
         warnings += w
-    loops = boundary_loops(T)
-    bnd = _Boundary(UV[loops[0]])
-    # plane scale: 3D length per plane length
-    a3 = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
-    a2 = np.abs(_signed_areas(UV, T))
-    scale = math.sqrt(a3.sum() / max(a2.sum(), 1e-300))
-    h_uv = h / scale
-    fam = []
-    for lines in (lines_1, lines_2):
-        L, _ = network_to_plane(V, T, UV, lines, 0.25 * h_uv)
-        fam.append(L)
-    # ---- naked ends: extend to the boundary or leave (trimmed later)
+    bnd = _Boundary(UV[boundary_loops(T)[0]])
+    h_uv = h / _plane_scale(V, T, UV)
     eps_b = 1e-6 * h_uv
-    extended = 0
-    for L in fam:
-        # an extension may not run along another line of its family (closer than a quarter panel)
-        own_id = np.concatenate([np.full(len(q), i) for i, q in enumerate(L)]) if L else np.zeros(0, np.int64)
-        tree = cKDTree(np.concatenate(L)) if L else None
-        for i, q in enumerate(L):
-            for end in (0, 1):
-                pts = q if end == 1 else q[::-1]
-                _, dist, _ = bnd.project(pts[-1:])
-                if dist[0] <= eps_b:
-                    continue
-                # end direction over the last quarter panel
-                seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-                cum = np.cumsum(seg[::-1])
-                k = int(min(np.searchsorted(cum, 0.25 * h_uv) + 1, len(seg)))
-                r = pts[-1] - pts[-1 - k]
-                nr = np.linalg.norm(r)
-                if nr <= 0:
-                    continue
-                r = r / nr
-                t = bnd.ray(pts[-1], r)
-                if t <= gap * h_uv:
-                    ext = _resample(np.vstack([pts[-1], pts[-1] + t * r]), 0.25 * h_uv)[1:]
-                    hits = tree.query_ball_point(ext, 0.25 * h_uv)
-                    if any(own_id[j] != i for hs in hits for j in hs):
-                        continue
-                    pts = np.vstack([pts, ext])
-                    extended += 1
-                q = pts if end == 1 else pts[::-1]
-            L[i] = q
-    A, B = fam
-    ia, sa, ib, sb, P = network_crossings(A, B)
-    if len(P) == 0:
+    fam, extended = [], 0
+    for lines in (lines_1, lines_2):
+        L, n_ext = _extend_naked_ends(network_to_plane(V, T, UV, lines, 0.25 * h_uv)[0], bnd, h_uv, gap, eps_b)
+        fam.append(L)
+        extended += n_ext
+    crossings = network_crossings(*fam)
+    if len(crossings[4]) == 0:
         raise MeshError("mesh", "the two line families do not cross: no quad can be formed (panel size too large?)")
-    # ---- nodes
-    node_uv = [P]
-    node_kind = [np.zeros(len(P), np.int64)]
-    per_line = [[[] for _ in A], [[] for _ in B]]  # (param, node)
-    for c in range(len(P)):
-        per_line[0][ia[c]].append((sa[c], c))
-        per_line[1][ib[c]].append((sb[c], c))
-    nn = len(P)
-    bnodes = []  # (boundary param, node)
-    bpar = {}
-    trimmed = 0
-    for f, L in enumerate(fam):
-        for i, q in enumerate(L):
-            ends = bnd.project(q[[0, -1]])
-            for e, par in ((0, 0.0), (1, float(len(q) - 1))):
-                if ends[1][e] <= eps_b * 10:
-                    node_uv.append(ends[0][e:e + 1])
-                    node_kind.append(np.array([NODE_BOUNDARY]))
-                    per_line[f][i].append((par, nn))
-                    bnodes.append((ends[2][e], nn))
-                    bpar[nn] = float(ends[2][e])
-                    nn += 1
-                elif per_line[f][i]:
-                    trimmed += 1
-    # boundary corners
-    P0 = bnd.P
-    a_in = P0 - np.roll(P0, 1, axis=0)
-    a_out = np.roll(P0, -1, axis=0) - P0
-    turn = np.abs(np.arctan2(_cross2(a_in, a_out), np.einsum("ij,ij->i", a_in, a_out)))
-    corners = np.nonzero(turn > math.radians(corner_angle))[0]
-    for k in corners:
-        node_uv.append(P0[k:k + 1])
-        node_kind.append(np.array([NODE_CORNER]))
-        bnodes.append((bnd.cum[k], nn))
-        bpar[nn] = float(bnd.cum[k])
-        nn += 1
-    nuv = np.concatenate(node_uv)
-    kind = np.concatenate(node_kind)
-    # ---- edges (a, b, polyline)
-    edges, polys, efam = [], [], []
-    for f, L in enumerate(fam):
-        for i, q in enumerate(L):
-            lst = sorted(per_line[f][i])
-            for (s0, n0), (s1, n1) in zip(lst[:-1], lst[1:]):
-                if n0 == n1:
-                    continue
-                k0, k1 = int(math.floor(s0)), int(math.floor(s1))
-                inner = q[k0 + 1:k1 + 1] if k1 >= k0 + 1 else np.zeros((0, 2))
-                pts = np.vstack([nuv[n0], inner, nuv[n1]])
-                edges.append((n0, n1))
-                polys.append(pts)
-                efam.append(f)
-    if bnodes:
-        bnodes.sort()
-        for (s0, n0), (s1, n1) in zip(bnodes, bnodes[1:] + bnodes[:1]):
-            if n0 == n1 or len(bnodes) < 2:
-                continue
-            pts = bnd.arc(s0, s1)
-            pts[0], pts[-1] = nuv[n0], nuv[n1]
-            edges.append((n0, n1))
-            polys.append(pts)
-            efam.append(2)
-    edges = np.asarray(edges, np.int64).reshape(-1, 2)
-    efam = np.asarray(efam, np.int64)
-    # ---- 3D positions, merge short boundary edges
-    X, _ = uv_to_surface(V, T, UV, nuv)
-    elen = np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1)
-    isx = kind == NODE_CROSSING
-    isend = kind == NODE_BOUNDARY
-    short = (elen < merge * h) & ((isx[edges[:, 0]] & isend[edges[:, 1]]) | (isend[edges[:, 0]] & isx[edges[:, 1]]))
-    rep = _union_find(nn, [tuple(e) for e in edges[short][np.argsort(elen[short])]])
-    # the representative of a cluster: a corner, else a crossing (line edges keep their directions), else the
-    # smallest index
-    rank = np.where(kind == NODE_CORNER, 0, np.where(kind == NODE_CROSSING, 1, 2))
-    order = np.lexsort((np.arange(nn), rank, rep))
-    first = np.r_[True, rep[order][1:] != rep[order][:-1]]
-    head = np.empty(nn, np.int64)
-    head_of_rep = dict(zip(rep[order][first].tolist(), order[first].tolist()))
-    for v in range(nn):
-        head[v] = head_of_rep[rep[v]]
-    E = head[edges]
-    # a crossing that took a boundary end in is on the boundary now
-    kind = kind.copy()
-    merged_b = head[(kind == NODE_BOUNDARY) & (head != np.arange(nn))]
-    kind[merged_b[kind[merged_b] == NODE_CROSSING]] = NODE_BOUNDARY
-    keep = E[:, 0] != E[:, 1]
-    # duplicate edges between the same nodes: keep the boundary edge, else the first
-    key = np.minimum(E[:, 0], E[:, 1]) * nn + np.maximum(E[:, 0], E[:, 1])
-    pref = np.where(efam == 2, 0, 1)
-    idx = np.nonzero(keep)[0]
-    idx = idx[np.lexsort((pref[idx], key[idx]))]
-    uniq = np.r_[True, key[idx][1:] != key[idx][:-1]]
-    sel = np.sort(idx[uniq])
-    E = E[sel]
-    polys = [polys[i] for i in sel.tolist()]
-    efam = efam[sel]
-    # prune dangling nodes (degree 1) repeatedly
-    alive = np.ones(len(E), bool)
-    while True:
-        deg = np.bincount(E[alive].ravel(), minlength=nn)
-        dang = alive & ((deg[E[:, 0]] == 1) | (deg[E[:, 1]] == 1))
-        if not dang.any():
-            break
-        alive &= ~dang
-    E = E[alive]
-    polys = [p for p, a in zip(polys, alive) if a]
-    efam = efam[alive]
-    if len(E) == 0:
-        raise MeshError("mesh", "the line network forms no closed cell (panel size too large for the surface?)")
-    # directions: from each end towards a point 30% along its polyline (after merging, from the merged node)
-    dout = np.array([_arc_point(p, 0.3) for p in polys]) - nuv[E[:, 0]]
-    din = np.array([_arc_point(p[::-1], 0.3) for p in polys]) - nuv[E[:, 1]]
-    cycles = _trace_faces(nuv, E, dout, din)
-    faces, dropped, big = [], 0, 0
-    for cyc in cycles:
-        if len(cyc) < 3 or len(set(cyc)) != len(cyc):
-            dropped += len(cyc) >= 3
-            continue
-        pu = nuv[cyc]
-        area = 0.5 * np.sum(_cross2(pu, np.roll(pu, -1, axis=0)))
-        if area <= 0:
-            continue  # the outer face (or an inverted sliver)
-        if len(cyc) > max_face_size:
-            big += 1
-            dropped += 1
-            continue
-        faces.append(cyc)
-    faces, nsplit = _split_hexagons(faces, nuv)
-    if nsplit:
-        warnings.append(f"{nsplit} hexagon(s) between two facing line ends (T-junctions) were split into two quads "
-                        "(the missing piece of line restored straight in the plane)")
-    if big:
-        warnings.append(f"{big} cell(s) with more than {max_face_size} corners (holes in the network, e.g. skipped "
-                        "umbilic regions or stopped lines) were left open")
-    if not faces:
-        raise MeshError("mesh", "the line network forms no cell with at most "
-                                f"{max_face_size} corners (panel size too large for the surface?)")
-    if boundary_cells == "trim":
-        k = max(len(f) for f in faces)
-        Ft = np.array([f + [f[-1]] * (k - len(f)) for f in faces], np.int64)
-        topo = edge_topology(Ft)
-        bedge = set(map(tuple, np.sort(topo.E[topo.count == 1], axis=1).tolist()))
-        faces, ntri, npen = _trim_boundary_cells(faces, kind, bedge)
+    nodes = _network_nodes(fam, bnd, crossings, eps_b, corner_angle)
+    edges, polys, efam = _network_edges(fam, nodes, bnd)
+    X, _ = uv_to_surface(V, T, UV, nodes.uv)
+    extend = boundary_cells == "extend"
+    faces, big, kind, dropped = _arrangement_faces(nodes, edges, polys, efam, X, merge * h, max_face_size, warnings,
+                                                   fill=extend)
+    nuv = nodes.uv
+    if extend:
+        faces, nuv, X, kind = _healed(faces + big, nuv, X, kind, V, T, UV, bnd, warnings)
+    elif boundary_cells == "trim":
+        faces, ntri, npen = _trim_boundary_cells(faces, kind, _boundary_edges(faces))
         if ntri or npen:
             warnings.append(f"boundary cells: {ntri} corner triangle(s) and {npen} pentagon(s) where the boundary cuts "
                             "the network were dropped (the candidate's boundary runs up to one panel inside the "
-                            "surface's boundary there; use boundary_cells='keep' to keep them)")
-    faces = _manifold_faces(faces, nn, warnings)
-    k = max(len(f) for f in faces)
-    F = np.array([f + [f[-1]] * (k - len(f)) for f in faces], np.int64)
+                            "surface's boundary there; use boundary_cells='extend' or 'keep' to keep them)")
+    faces = _manifold_faces(faces, len(kind), warnings)
+    F = pad_faces(faces)
     used = np.unique(F)
-    remap = np.full(nn, -1, np.int64)
+    remap = np.full(len(kind), -1, np.int64)
     remap[used] = np.arange(len(used))
     F = remap[F]
-    Xq, Uq, kq = X[used], nuv[used], kind[used]
-    sizes = face_sizes(F)
-    qf = float(np.mean(sizes == 4))
-    if trimmed:
-        warnings.append(f"{trimmed} line end(s) stopped inside the surface more than {gap:g} panel size(s) from the "
-                        "boundary; they were trimmed back to their last crossing (T-junctions)")
-    return Rebuild(Xq, F, Uq, kq, qf, extended, trimmed, dropped, warnings)
+    if nodes.trimmed:
+        warnings.append(f"{nodes.trimmed} line end(s) stopped inside the surface more than {gap:g} panel size(s) from "
+                        "the boundary; they were trimmed back to their last crossing (T-junctions)")
+    qf = float(np.mean(face_sizes(F) == 4))
+    return Rebuild(X[used], F, nuv[used], kind[used], qf, extended, nodes.trimmed, dropped, warnings)
 
 
 def _split_hexagons(faces, nuv, flat: float = 150.0):
@@ -801,36 +931,15 @@ def _trim_boundary_cells(faces, kind, bedge):
 
 
 def _manifold_faces(faces, n, warnings):
-    """Drop faces until every vertex has a single fan (no bow-tie vertices); the smaller fans go first."""
-    for _ in range(10):
-        k = max(len(f) for f in faces)
-        F = np.array([f + [f[-1]] * (k - len(f)) for f in faces], np.int64)
-        topo = edge_topology(F)
-        B = topo.E[topo.count == 1]
-        deg = np.bincount(B.ravel(), minlength=n)
-        bad = np.nonzero(deg > 2)[0]
-        if len(bad) == 0:
-            return faces
-        # faces around bad vertices: drop the non-quads there first, then everything but one fan
-        drop = set()
-        badset = set(bad.tolist())
-        for i, f in enumerate(faces):
-            if badset.intersection(f) and len(f) != 4:
-                drop.add(i)
-        if not drop:
-            for v in bad.tolist():
-                inc = [i for i, f in enumerate(faces) if v in f]
-                drop.update(inc[1:2])
-        warnings.append(f"{len(drop)} cell(s) were dropped to keep the mesh manifold at {len(bad)} vertex(es)")
-        faces = [f for i, f in enumerate(faces) if i not in drop]
+    """Drop faces until every vertex has a single fan (:func:`components.network.healing.manifold_cells`)."""
+    faces, dropped, nbad = manifold_cells(faces, n)
+    if dropped:
+        warnings.append(f"{dropped} cell(s) were dropped to keep the mesh manifold at {nbad} vertex(es)")
     return faces
 
 
 # ----------------------------------------------------------------------------------------------
 # published component
-
-
-from components.core.types import Curves, Mesh, Numbers  # noqa: E402
 
 
 class QuadRebuildResult(NamedTuple):
@@ -863,8 +972,9 @@ def quad_rebuild(mesh: Mesh, panel_size: float, umbilic_threshold: float = 0.05,
     plane : str
         Plane map: ``"lscm"`` (conformal, free boundary) or ``"disk"`` (fixed boundary on a disk).
     boundary_cells : str
-        ``"trim"``: boundary triangles and pentagons (where the boundary cuts a cell's corner) are dropped;
-        ``"keep"``: they are kept (full coverage, fewer quads).
+        ``"extend"``: the cells reach the boundary and are healed (short edges collapsed, flat corners and holes
+        split; healthy panels covering the surface); ``"trim"``: boundary triangles and pentagons (where the boundary
+        cuts a cell's corner) are dropped; ``"keep"``: they are kept as traced.
 
     Returns
     -------
@@ -902,15 +1012,11 @@ def quad_rebuild(mesh: Mesh, panel_size: float, umbilic_threshold: float = 0.05,
     >>> res.quad_fraction > 0.8
     True
     """
-    from components.network.tracing import network_for_mesh, principal_angle_error
-
     V, T, net = network_for_mesh(mesh, panel_size, umbilic_threshold=umbilic_threshold)
-    _check_option(gap, "gap")
-    _check_option(merge, "merge")
-    if plane not in ("lscm", "disk"):
-        raise InputError("plane", f"unknown plane map {plane!r} (use 'lscm' or 'disk')")
-    if boundary_cells not in ("trim", "keep"):
-        raise InputError("boundary_cells", f"must be 'trim' or 'keep', got {boundary_cells!r}")
+    gap = check_number(gap, "gap", 0)
+    merge = check_number(merge, "merge", 0)
+    check_choice(plane, "plane", PLANE_MAPS)
+    check_choice(boundary_cells, "boundary_cells", BOUNDARY_CELLS)
     rb = rebuild_from_network(V, T, net.lines_1, net.lines_2, panel_size, gap=gap, merge=merge, plane=plane,
                               boundary_cells=boundary_cells)
     err = principal_angle_error(rb.V, rb.F, V, T, net)
@@ -924,12 +1030,3 @@ def quad_rebuild(mesh: Mesh, panel_size: float, umbilic_threshold: float = 0.05,
         warnings=list(net.warnings) + list(rb.warnings),
     )
 
-
-def _check_option(value, name):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0:
-        raise InputError(name, f"must be a finite number >= 0, got {value!r}")
-    return v

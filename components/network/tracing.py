@@ -31,16 +31,19 @@ Jobard, Lefer, *Creating evenly-spaced streamlines of arbitrary density*, Visual
 """
 from __future__ import annotations
 
+import inspect
 import logging
 from typing import Callable, NamedTuple
 
 import numpy as np
 
+from components.core.checks import check_int, check_mesh, check_number
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
-from components.core.checks import check_number, validate_mesh
 from components.core.errors import InputError, MeshError
-from components.core.mesh import triangulate
+from components.core.mesh import boundary_loops, edge_topology, triangulate
+from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Integers, Mesh
+from components.fields.streamlines import evenly_spaced_streamlines
 
 log = logging.getLogger(__name__)
 
@@ -122,14 +125,6 @@ class Network(NamedTuple):
     warnings: list
 
 
-def _default_tracer() -> Callable | None:
-    try:
-        from components.fields.streamlines import evenly_spaced_streamlines
-    except ImportError:
-        return None
-    return evenly_spaced_streamlines
-
-
 def _polylines(out) -> list[np.ndarray]:
     """Polylines from a tracer's result: a list of (k, 3) arrays, or a NamedTuple carrying one."""
     if hasattr(out, "_fields"):
@@ -150,8 +145,6 @@ def _polylines(out) -> list[np.ndarray]:
 def _tracer_options(tracer, V, T, fld, h) -> dict:
     """Keyword options the tracer accepts: a first seed in the most central anisotropic triangle, the shortest
     line kept (half a panel)."""
-    import inspect
-
     try:
         params = inspect.signature(tracer).parameters
     except (TypeError, ValueError):
@@ -175,8 +168,6 @@ def _cut_umbilic(V, T, lines, umbilic, min_length):
     """Split polylines where they run through umbilic triangles; drop pieces shorter than ``min_length``."""
     if not umbilic.any() or not lines:
         return lines, 0
-    from components.core.proximity import TriangleIndex
-
     P = np.concatenate(lines)
     inside = umbilic[TriangleIndex(V, T).query(P).faces]
     out, ncut, start = [], 0, 0
@@ -224,8 +215,6 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     ------
     InputError
         Non-positive panel size; a surface that is umbilic (or flat) almost everywhere (named ``mesh``).
-    RuntimeError
-        No tracer given and :mod:`components.fields.streamlines` is not available.
     """
     V = np.asarray(V, np.float64)
     T = np.asarray(T, np.int64)
@@ -239,10 +228,7 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
                                  f"curvature anisotropy below {umbilic_threshold:g}; a sphere or plane patch): its "
                                  "principal directions are undefined, so it has no curvature network")
     if tracer is None:
-        tracer = _default_tracer()
-        if tracer is None:
-            raise RuntimeError("the streamline tracer components.fields.streamlines.evenly_spaced_streamlines is not "
-                               "available: pass tracer=")
+        tracer = evenly_spaced_streamlines
     U, W = fld.PD1, fld.PD2
     kwargs = _tracer_options(tracer, V, T, fld, h)
     fams, ncut = [], 0
@@ -262,16 +248,12 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
 
 def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: int = 2, tracer=None):
     """Validate a ``(V, F)`` surface (triangulated) and trace its network: ``(V, T, Network)``."""
-    if not (isinstance(mesh, (tuple, list)) and len(mesh) >= 2):
-        raise MeshError("mesh", "expected a (V, F) tuple of vertices and faces")
-    V, F = validate_mesh(mesh[0], mesh[1], name="mesh")
+    V, F = check_mesh(mesh, "mesh")
     check_number(panel_size, "panel_size", 0, above=True)
     t = check_number(umbilic_threshold, "umbilic_threshold", 0)
     if t >= 1:
         raise InputError("umbilic_threshold", f"must be below 1, got {umbilic_threshold!r}")
     T = triangulate(F)[0] if F.shape[1] != 3 else F
-    from components.core.mesh import boundary_loops
-
     if not boundary_loops(T):
         raise MeshError("mesh", "the surface is closed (no boundary): the curvature network is rebuilt in a disk "
                                 "parametrization, so cut the surface open first")
@@ -314,9 +296,6 @@ def principal_angle_error(Vq: np.ndarray, Fq: np.ndarray, V: np.ndarray, T: np.n
         Per-edge angles in degrees (edge projected into the tangent plane), the mask of edges away from umbilics
         and the two means.
     """
-    from components.core.mesh import edge_topology
-    from components.core.proximity import TriangleIndex
-
     fld = net_or_field.field if hasattr(net_or_field, "field") else net_or_field
     E = edge_topology(Fq).E
     mid = 0.5 * (Vq[E[:, 0]] + Vq[E[:, 1]])
@@ -400,8 +379,7 @@ def curvature_network(mesh: Mesh, panel_size: float, umbilic_threshold: float = 
     >>> res.count_1 > 3 and res.count_2 > 3
     True
     """
-    if isinstance(radius, bool) or not isinstance(radius, (int, np.integer)) or radius < 1:
-        raise InputError("radius", f"must be a positive integer, got {radius!r}")
+    radius = check_int(radius, "radius", 1)
     V, T, net = network_for_mesh(mesh, panel_size, umbilic_threshold, radius)
     return CurvatureNetworkResult(
         lines_1=net.lines_1,

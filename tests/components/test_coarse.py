@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from components.subdivision.coarse import coarse_quad_mesh, ogrid_layout, patch_layout
+from components.subdivision.coarse import coarse_mesh, ogrid_layout, patch_layout
 from components.core.checks import validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, face_normals, read_mesh
@@ -12,7 +12,7 @@ from components.core.proximity import PolylineIndex, TriangleIndex
 from components.subdivision.pull import pulled_vertices
 from components.surfaces.samples import sample_mesh
 from components.subdivision.singularities import singularity_analysis
-from components.subdivision.subdivide import catmull_clark, coarse_mesh
+from components.subdivision.subdivide import subdivided_mesh, control_mesh
 from tests.conftest import shared_file
 
 
@@ -29,7 +29,7 @@ def _surface(name):
 
 def _check_net(V, T, Vc, Qc):
     diag = float(np.linalg.norm(V.max(0) - V.min(0)))
-    coarse_mesh(Vc, Qc, name="coarse")  # manifold, oriented, no degenerate face
+    control_mesh(Vc, Qc, name="coarse")  # manifold, oriented, no degenerate face
     index = TriangleIndex(V, T)
     res = index.query(Vc)
     assert res.distances.max() <= 1e-9 * diag
@@ -45,14 +45,14 @@ def _check_net(V, T, Vc, Qc):
     d = PolylineIndex(V[loop], closed=True).query(Vc[bv]).distances
     assert d.max() <= 1e-9 * diag
     # no flipped face after subdividing and pulling
-    Vs, Qs, _ = catmull_clark(Vc, Qc, levels=2)
+    Vs, Qs, _ = subdivided_mesh(Vc, Qc, levels=2)
     assert len(pulled_vertices(Vs, Qs, V, T).flipped_faces) == 0
 
 
 @pytest.mark.parametrize("name", _surfaces())
 def test_ogrid_net_is_valid(name):
     V, T = _surface(name)
-    res = coarse_quad_mesh((V, T), faces=36, layout="ogrid")
+    res = coarse_mesh((V, T), faces=36, layout="ogrid")
     Vc, Qc = res.coarse
     assert res.layout == "ogrid"
     assert 20 <= res.face_count <= 60
@@ -65,7 +65,7 @@ def test_ogrid_net_is_valid(name):
 def test_patches_around_suggested_singularity(name, valence):
     V, T = _surface(name)
     s = singularity_analysis((V, T))
-    res = coarse_quad_mesh((V, T), faces=36, singularities=s.singularities, singularity_index=s.singularity_index)
+    res = coarse_mesh((V, T), faces=36, singularities=s.singularities, singularity_index=s.singularity_index)
     assert res.layout == "patches"
     assert res.irregular_valences.tolist() == [valence]
     Vc, Qc = res.coarse
@@ -78,12 +78,12 @@ def test_patches_around_suggested_singularity(name, valence):
 @pytest.mark.parametrize("name", ["saddle", "inspired"])
 def test_aligned_net_is_valid_and_more_conjugate(name):
     V, T = _surface(name)
-    res = coarse_quad_mesh((V, T), faces=36, layout="aligned")
+    res = coarse_mesh((V, T), faces=36, layout="aligned")
     assert res.layout == "aligned"
     assert 20 <= res.face_count <= 60
     _check_net(V, T, *res.coarse)
     if name == "saddle":  # along the conjugate field the subdivided net is flatter than the O-grid's
-        assert res.predicted_planarity < 0.8 * coarse_quad_mesh((V, T), faces=36, layout="ogrid").predicted_planarity
+        assert res.predicted_planarity < 0.8 * coarse_mesh((V, T), faces=36, layout="ogrid").predicted_planarity
 
 
 def test_auto_falls_back_to_the_ogrid_with_a_warning(monkeypatch):
@@ -94,27 +94,27 @@ def test_auto_falls_back_to_the_ogrid_with_a_warning(monkeypatch):
 
     monkeypatch.setattr(coarse_mod, "aligned_layout", fails)
     V, T = _surface("dome")
-    res = coarse_quad_mesh((V, T), faces=36)
+    res = coarse_mesh((V, T), faces=36)
     assert res.layout == "ogrid"
     assert any("O-grid instead" in w for w in res.warnings)
     with pytest.raises(InputError, match="layout"):
-        coarse_quad_mesh((V, T), faces=36, layout="aligned")
+        coarse_mesh((V, T), faces=36, layout="aligned")
 
 
 @pytest.mark.parametrize("name", ["dome", "saddle"])
 def test_auto_picks_a_valid_net(name):
     V, T = _surface(name)
-    res = coarse_quad_mesh((V, T), faces=36)
+    res = coarse_mesh((V, T), faces=36)
     assert res.layout in ("aligned", "ogrid")
     _check_net(V, T, *res.coarse)
 
 
 def test_regular_patch_layout_and_face_target():
     V, T = _surface("wave")
-    res = coarse_quad_mesh((V, T), faces=64, layout="patches")
+    res = coarse_mesh((V, T), faces=64, layout="patches")
     assert res.face_count == 64 and len(res.irregular_vertices) == 0
     _check_net(V, T, *res.coarse)
-    assert coarse_quad_mesh((V, T), faces=100).face_count > coarse_quad_mesh((V, T), faces=30).face_count
+    assert coarse_mesh((V, T), faces=100).face_count > coarse_mesh((V, T), faces=30).face_count
 
 
 def test_layouts_in_the_plane():
@@ -132,18 +132,18 @@ def test_layouts_in_the_plane():
 def test_bad_input(nonmanifold_fan):
     V, T = _surface("dome")
     with pytest.raises(InputError, match="faces"):
-        coarse_quad_mesh((V, T), faces=2)
+        coarse_mesh((V, T), faces=2)
     with pytest.raises(InputError, match="layout"):
-        coarse_quad_mesh((V, T), layout="spiral")
+        coarse_mesh((V, T), layout="spiral")
     with pytest.raises(InputError, match="singularities"):
-        coarse_quad_mesh((V, T), singularities=np.zeros((2, 2)))
+        coarse_mesh((V, T), singularities=np.zeros((2, 2)))
     with pytest.raises(InputError, match="singularity_index"):
-        coarse_quad_mesh((V, T), singularities=np.zeros((1, 3)), singularity_index=[0.25, 0.25])
+        coarse_mesh((V, T), singularities=np.zeros((1, 3)), singularity_index=[0.25, 0.25])
     with pytest.raises(InputError, match="singularity_index"):
-        coarse_quad_mesh((V, T), singularities=V[:1], singularity_index=[2.0], layout="patches")
+        coarse_mesh((V, T), singularities=V[:1], singularity_index=[2.0], layout="patches")
     with pytest.raises(MeshError, match="surface"):
-        coarse_quad_mesh(nonmanifold_fan)
+        coarse_mesh(nonmanifold_fan)
     with pytest.raises(InputError, match="surface"):
-        coarse_quad_mesh(V)
+        coarse_mesh(V)
     with pytest.raises(InputError, match="levels"):
-        coarse_quad_mesh((V, T), levels=-1)
+        coarse_mesh((V, T), levels=-1)

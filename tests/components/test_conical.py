@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 
 from components.conical.cones import (
-    conical_analysis,
+    analysis,
     conical_check,
     conical_criterion,
     cone_fit,
     face_offset,
     face_planes,
     node_axes,
-    offset_mesh,
+    offset,
     vertex_offset,
 )
 from components.core.checks import validate_mesh
@@ -89,7 +89,7 @@ def test_conical1_passes_as_is():
     assert chk.passed.all() and chk.max_criterion < 1e-3
     assert np.nanmedian(chk.criterion) < 5e-5
     assert chk.deviation.max() < 1e-4  # face normals on a circle to 3.8e-5 rad
-    res = conical_analysis((V, F), tolerance=1e-3)
+    res = analysis((V, F), tolerance=1e-3)
     assert res.is_conical and len(res.failed) == 0 and res.max_planarity < 1e-4
     # a planarized but non-conical PQ mesh of the same collection fails by orders of magnitude
     V2, F2 = read_mesh(shared_file("meshes/dos/obj_pq__planarizednormalized_six_quad.obj"))
@@ -135,7 +135,7 @@ def test_face_offset_of_a_non_conical_mesh_has_residuals():
     V, F = translation_net()
     off = face_offset(V, F, 0.1)
     assert off.vertex_residual.max() > 1e-4
-    assert offset_mesh((V, F), distance=0.1).warnings  # says the mesh is not conical
+    assert offset((V, F), distance=0.1).warnings  # says the mesh is not conical
 
 
 def test_vertex_offset_does_not_keep_face_distances():
@@ -166,54 +166,64 @@ def test_offset_bad_inputs(planar_grid):
     with pytest.raises(InputError, match="distance"):
         face_offset(V, F, float("nan"))
     with pytest.raises(InputError, match="distance"):
-        offset_mesh(planar_grid, distance=0.0)
+        offset(planar_grid, distance=0.0)
     with pytest.raises(InputError, match="method"):
-        offset_mesh(planar_grid, method="normal")
+        offset(planar_grid, method="normal")
     with pytest.raises(MeshError, match="mesh"):
-        offset_mesh((V, F[:, ::-1][:3].tolist() + F[3:].tolist()))  # inconsistent orientation
+        offset((V, F[:, ::-1][:3].tolist() + F[3:].tolist()))  # inconsistent orientation
     with pytest.raises(InputError, match="tolerance"):
-        conical_analysis(planar_grid, tolerance=-1.0)
+        analysis(planar_grid, tolerance=-1.0)
 
 
 # ---------------------------------------------------------------------------------------------- components
 
 
-def test_conical_analysis_component():
+def test_analysis_component():
     V, F = revolution_net()
-    res = conical_analysis((V, F))
+    res = analysis((V, F))
     assert res._fields == ("criterion", "checked", "failed", "max_criterion", "mean_criterion", "cone_deviation",
                            "max_cone_deviation", "node_axes", "max_planarity", "is_conical", "warnings")
     assert res.is_conical and not res.warnings and len(res.failed) == 0
     assert res.criterion.shape == (len(V),) and res.node_axes.shape == (len(V), 2, 3)
     assert len(res.checked) == 7 * 9
-    bad = conical_analysis(translation_net())
+    bad = analysis(translation_net())
     assert not bad.is_conical and len(bad.failed) > 0
 
 
-def test_conical_analysis_warns_on_non_planar(hypar_grid):
-    res = conical_analysis(hypar_grid)
+def test_analysis_warns_on_non_planar(hypar_grid):
+    res = analysis(hypar_grid)
     assert not res.is_conical and any("not planar" in w for w in res.warnings)
 
 
 def test_offset_mesh_component():
     V, F = revolution_net()
-    res = offset_mesh((V, F), distance=0.2)
+    res = offset((V, F), distance=0.2)
     assert res._fields == ("offset", "node_axes", "face_error", "max_face_error", "vertex_residual",
                            "max_axis_coplanarity", "warnings")
     assert res.max_face_error <= 1e-13 and res.max_axis_coplanarity <= 1e-9 and not res.warnings
     W, G = res.offset
     assert W.shape == V.shape and np.array_equal(G, F)
-    vres = offset_mesh((V, F), distance=0.2, method="vertex")
+    vres = offset((V, F), distance=0.2, method="vertex")
     assert vres.max_face_error > 1e-4
     # beyond the radius of curvature faces flip: said in a warning
-    far = offset_mesh((V, F), distance=-3.0)
+    far = offset((V, F), distance=-3.0)
     assert any("flipped" in w for w in far.warnings)
 
 
 def test_triangle_mesh_is_not_reported_conical():
     V, F = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_dome.obj"))
-    res = conical_analysis((V, F))
+    res = analysis((V, F))
     # valence-6 stars of triangles: their six normals do not lie on a common cone
     assert not res.is_conical and len(res.checked) > 0 and len(res.failed) > 0
-    off = offset_mesh((V, F), distance=0.05)
+    off = offset((V, F), distance=0.05)
     assert any("do not meet in one point" in w for w in off.warnings)
+
+
+def test_face_offset_far_from_the_origin():
+    # the same exact conical net placed at 5e6 and in millimetres: the offset is as exact (solved about the centre)
+    V, F = revolution_net()
+    d = 0.2
+    for scale, shift in ((1.0, 5e6), (1000.0, 0.0)):
+        off = face_offset(V * scale + shift, F, d * scale)
+        assert off.face_error.max() <= 1e-6 * d * scale
+        assert off.vertex_residual.max() <= 1e-6 * d * scale

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from components.conical.cones import conical_check, face_offset
-from components.conical.optimize import conical_optimize, optimize_conical
+from components.conical.optimize import conical_mesh, optimize
 from components.core.errors import InputError, MeshError
-from components.core.mesh import quad_grid, read_mesh
+from components.core.mesh import boundary_loops, quad_grid, read_mesh
 from components.planarize.planarizer import face_planarity, planarize_mesh
 from tests.components.test_conical import revolution_net, translation_net
 from tests.conftest import shared_file
@@ -31,13 +31,15 @@ def test_non_conical_pq_meshes_fail():
     assert not conical_check(Vt, Ft, 1e-4).passed.all()
 
 
-def test_planarized_hypar_grid_fails(hypar_grid):
-    V, Q = hypar_grid
-    # planarized while staying on the hypar (without the reference the solver flattens it: a plane is conical)
-    res = planarize_mesh(V, Q, (V, Q), tolerance=1e-9)
-    X = res.mesh[0]
-    assert res.max_planarity < 1e-3
-    chk = conical_check(X, Q, 1e-4)
+def test_planar_hypar_net_fails():
+    # the hyperbolic paraboloid z = (u² − v²)/2 meshed along its parabolas (a translation net): every quad exactly
+    # planar and healthy, yet not conical away from the vertex (the old version of this test planarized the
+    # asymptotic grid, which the solver could only do by collapsing panels)
+    V, Q = quad_grid(10, 10, 2.0, 2.0)
+    V[:, :2] -= 1.0
+    V[:, 2] = (V[:, 0] ** 2 - V[:, 1] ** 2) / 2.0
+    assert face_planarity(V, Q).max() < 1e-12
+    chk = conical_check(V, Q, 1e-4)
     assert not chk.passed.all() and chk.deviation[chk.checked].max() > 0.01
 
 
@@ -53,9 +55,9 @@ def _noisy_revolution():
     return V, F, V + 0.004 * rng.standard_normal(V.shape)
 
 
-def test_optimize_conical_and_exact_face_offset():
+def test_conical_mesh_and_exact_face_offset():
     V, F, Vn = _noisy_revolution()
-    res = optimize_conical(Vn, F, (V, F))
+    res = conical_mesh(Vn, F, (V, F))
     assert res.converged
     assert res.max_planarity <= 1e-4 and res.max_criterion < 1e-4
     assert res.max_planarity < 1e-9  # polished
@@ -66,15 +68,15 @@ def test_optimize_conical_and_exact_face_offset():
     # consecutive node axes are coplanar (interior edges; boundary ones by the parallel-boundary fit)
     assert off.axis_coplanarity.max() < 1e-6
     # without the polish the offset error is planarity-limited
-    res2 = optimize_conical(Vn, F, (V, F), polish=False)
+    res2 = conical_mesh(Vn, F, (V, F), polish=False)
     assert res2.max_planarity <= 1e-4 and res2.max_criterion < 1e-4
 
 
 def test_published_component():
-    res = conical_optimize(quad_grid(3, 3))
+    res = optimize(quad_grid(3, 3))
     assert res.is_conical and res.max_planarity < 1e-12
     V, F, Vn = _noisy_revolution()
-    res = conical_optimize((Vn, F), reference=(V, F))
+    res = optimize((Vn, F), reference=(V, F))
     assert res.is_conical and res.relative_closeness < 0.02
     assert res.criterion.shape == (len(V),)
 
@@ -82,12 +84,31 @@ def test_published_component():
 def test_bad_inputs():
     V, F = quad_grid(3, 3)
     with pytest.raises(InputError, match="tolerance"):
-        conical_optimize((V, F), tolerance=0.0)
+        optimize((V, F), tolerance=0.0)
     with pytest.raises(MeshError, match="reference"):
-        conical_optimize((V, F), reference="surface")
+        optimize((V, F), reference="surface")
     with pytest.raises(MeshError, match="mesh"):
-        conical_optimize(V)
+        optimize(V)
     with pytest.raises(InputError, match="boundary"):
-        conical_optimize((V, F), boundary="round")
+        optimize((V, F), boundary="round")
     with pytest.raises(InputError, match="closeness_weight"):
-        conical_optimize((V, F), closeness_weight=-1)
+        optimize((V, F), closeness_weight=-1)
+
+
+def test_converged_means_healthy():
+    V, F, Vn = _noisy_revolution()
+    res = conical_mesh(Vn, F, (V, F))
+    assert res.converged and res.healthy and res.violations == [] and res.coverage >= 0.85
+    # a pinched boundary edge that may not move is optimized around but not claimed conical: the violation says why
+    loop = boundary_loops(F)[0]
+    a, b = loop[3], loop[4]
+    Vp = Vn.copy()
+    Vp[b] = Vp[a] + 0.05 * (Vp[b] - Vp[a])  # edge a-b shrunk to 5 %
+    bad = conical_mesh(Vp, F, (V, F), boundary="fixed")
+    assert bad.max_planarity <= 1e-4 and bad.max_criterion < 1e-4
+    assert not bad.healthy and not bad.converged
+    assert any("shorter than" in line for line in bad.violations)
+    assert any(w.startswith("panels not healthy") for w in bad.warnings)
+    pub = optimize((Vp, F), reference=(V, F), boundary="fixed")
+    assert not pub.is_conical and not pub.healthy and pub.violations
+    assert optimize(quad_grid(3, 3)).coverage == -1.0

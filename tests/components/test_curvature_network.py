@@ -221,11 +221,3 @@ def test_dome_umbilics_are_skipped_with_a_warning():
     P = np.concatenate(net.lines_1 + net.lines_2)
     assert not net.field.umbilic[TriangleIndex(V, T).query(P).faces].any()  # no line runs through an umbilic region
 
-
-def test_missing_tracer_is_a_clear_error(saddle, monkeypatch):
-    import components.network.tracing as cn
-
-    monkeypatch.setattr(cn, "_default_tracer", lambda: None)
-    V, T = saddle
-    with pytest.raises(RuntimeError, match="streamline tracer"):
-        principal_network(V, T, 2.0)

@@ -6,19 +6,12 @@ import numpy as np
 import pytest
 
 from components.core.errors import InputError, MeshError
-from components.core.mesh import edge_lengths, edge_topology, quad_grid, read_mesh
-from components.planarize.planarizer import (
-    corner_angles,
-    face_planarity,
-    nonconvex_faces,
-    planarize,
-    planarize_on_surface,
-    warping_height,
-)
+from components.core.measures import corner_angles, nonconvex_faces, quad_planarity as face_planarity, warping_height
+from components.core.mesh import boundary_loops, edge_lengths, edge_topology, face_corners, quad_grid, read_mesh
 from components.planarize.geometry import LoopIndex, vertex_stars
 from components.planarize.goals import conical_residual
-from components.planarize.geometry import face_corners
-from components.core.mesh import boundary_loops
+from components.metrics.health import face_health
+from components.planarize.planarizer import on_surface, planarize
 from tests.conftest import shared_file
 
 
@@ -132,7 +125,7 @@ def test_sliding_boundary_stays_on_the_reference_boundary():
     V, F = quad_grid(8, 8, 4.0, 4.0, height=lambda x, y: 0.05 * (x - 2) ** 2 + 0.03 * (y - 2) ** 2)
     rng = np.random.default_rng(4)
     Vp = V + 0.01 * rng.standard_normal(V.shape)
-    res = planarize_on_surface((Vp, F), (V, F), boundary="slide")
+    res = on_surface((Vp, F), (V, F), boundary="slide")
     assert res.converged, res.warnings
     loop = boundary_loops(F)[0]
     corners = {0, 8, 72, 80}  # grid corners stay fixed (where the noisy candidate put them)
@@ -186,7 +179,7 @@ def test_dos_heart_reaches_tolerance_with_healthy_panels():
     V, F = read_mesh(shared_file("meshes/dos/obj_pq__heart.obj"))
     assert face_planarity(V, F).max() > 0.1
     res = planarize((V, F))
-    assert res.converged, res.warnings
+    assert res.converged and res.healthy, res.warnings
     assert res.max_planarity <= 1e-4
     assert res.nonconvex_faces == 0
     _healthy(res, V, F)
@@ -202,13 +195,24 @@ def test_closeness_to_reference_is_bounded_on_conjugate_mesh():
     _healthy(res, V, F)
 
 
-def test_sliding_on_the_conjugate_mesh_reaches_tolerance():
+def test_sliding_on_the_conjugate_mesh_stays_healthy_and_says_how_far():
     # the remeshed boundary is a staircase: protruding quads lie wholly on it and their lone corners are set free
-    # (with a warning); every other boundary vertex stays on the boundary polyline of the surface
+    # (with a warning); every other boundary vertex stays on the boundary polyline of the surface. Planarity with
+    # the boundary on that polyline is only reached by collapsing boundary panels (the solver without its health
+    # guard converges with 42 edges under 2e-4 × the median edge and 179° corners): the guard keeps the panels
+    # healthy, and when the tolerance is out of reach the result says how far it is
     V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
-    res = planarize_on_surface((V, F), (V, F))
-    assert res.converged, res.warnings
-    assert res.max_planarity <= 1e-4
+    res = on_surface((V, F), (V, F))
+    assert res.healthy, res.violations
+    h = face_health(res.mesh[0], F)
+    assert h.shortest_edge_ratio >= 0.19 and min(h.worst_corner, 180.0 - h.worst_corner) >= 20.0
+    assert res.max_planarity < face_planarity(V, F).max()
+    if res.converged:
+        assert res.max_planarity <= 1e-4 and res.violations == []
+    else:
+        how_far = [w for w in res.warnings if w.startswith("tolerance not reached")]
+        assert how_far and "of 1633 faces above the planarity tolerance 0.0001" in how_far[0]
+        assert res.violations[0].endswith(f"face {int(np.argmax(res.planarity))})")
     _healthy(res, V, F)
     loop = boundary_loops(F)[0]
     faces_per_v = np.bincount(F.ravel(), minlength=len(V))
@@ -339,6 +343,6 @@ def test_bad_inputs_raise_typed_errors(planar_grid, nonmanifold_fan):
     with pytest.raises(MeshError, match="reference"):
         planarize((V, F), reference=(V[:, :2], F))
     with pytest.raises(MeshError, match="surface"):
-        planarize_on_surface((V, F), None)
+        on_surface((V, F), None)
     with pytest.raises(MeshError, match="mesh"):
         planarize(V)

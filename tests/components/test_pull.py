@@ -8,7 +8,7 @@ import pytest
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, bounding_box_diagonal, quad_grid, read_mesh, triangulate
 from components.subdivision.pull import pull_to_surface, pulled_vertices, reference_boundary
-from components.subdivision.subdivide import catmull_clark
+from components.subdivision.subdivide import subdivided_mesh
 from tests.conftest import shared_file
 
 
@@ -25,7 +25,7 @@ def _coarse_over_hypar(levels=2):
     V, Q = quad_grid(3, 3, 2.0, 2.0)
     V[:, :2] -= 1.0
     V[:, 2] = 0.5 * V[:, 0] * V[:, 1] + 0.05
-    V1, Q1, _ = catmull_clark(V, Q, levels=levels)
+    V1, Q1, _ = subdivided_mesh(V, Q, levels=levels)
     return V1, Q1
 
 
@@ -93,7 +93,7 @@ def test_polygon_reference_and_closed_reference_warning():
     # a closed reference (subdivided cube, quads): boundary vertices of an open mesh go to the surface, with a warning
     Vc = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], dtype=float)
     Fc = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]])
-    Vs, Qs, _ = catmull_clark(Vc, Fc, levels=3)
+    Vs, Qs, _ = subdivided_mesh(Vc, Fc, levels=3)
     assert reference_boundary(Vs, Qs) == []
     V, Q = quad_grid(4, 4, 0.6, 0.6)
     V += [0.2, 0.2, 1.2]  # above the top of the blob
@@ -119,7 +119,7 @@ def test_flipped_faces_are_reported():
 def test_real_mesh_quad_remesh_onto_inspired_mesh():
     Vr, Tr = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
     Vq, Fq = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
-    V1, Q1, _ = catmull_clark(Vq, Fq, levels=1)
+    V1, Q1, _ = subdivided_mesh(Vq, Fq, levels=1)
     res = pulled_vertices(V1, Q1, Vr, Tr)
     diag = bounding_box_diagonal(Vr)
     sq, _, _ = igl.point_mesh_squared_distance(res.V, Vr, Tr)
@@ -143,7 +143,7 @@ def test_subdivided_net_pulled_onto_sample_surfaces(name):
     samples = pytest.importorskip("components.surfaces.samples")
     s = samples.sample_surface_function(name)
     Vr, Tr, _ = samples.sample_mesh(name, 24)
-    V, Q, _ = catmull_clark(*_coarse_layout(s), levels=2)
+    V, Q, _ = subdivided_mesh(*_coarse_layout(s), levels=2)
     res = pulled_vertices(V, Q, Vr, Tr)
     diag = bounding_box_diagonal(Vr)
     assert res.distances_after.max() <= 1e-9 * diag
@@ -201,16 +201,16 @@ def test_bad_inputs(nonmanifold_fan):
 
 def test_pulled_subdivision_spreads_the_boundary_and_keeps_panels_open():
     # lobed canopy boundary: closest points collapse the boundary panels (0.8° corner measured), the arc-length
-    # spread with the harmonic interior follow-up keeps them open
+    # spread with the smooth interior follow-up keeps them open
     from components.subdivision.coarse import coarse_net
-    from components.planarize.geometry import corner_angles
+    from components.core.measures import corner_angles
     from components.core.proximity import PolylineIndex, TriangleIndex
     from components.subdivision.pull import pulled_subdivision
     from components.surfaces.samples import sample_mesh
 
     V, T, _ = sample_mesh("canopy", 20)
     net = coarse_net(V, T, faces=36, layout="ogrid")
-    Vs, Qs, _ = catmull_clark(net.V, net.Q, levels=2)
+    Vs, Qs, _ = subdivided_mesh(net.V, net.Q, levels=2)
     res = pulled_subdivision(Vs, Qs, net.V, V, T)
     diag = bounding_box_diagonal(V)
     assert TriangleIndex(V, T).query(res.V).distances.max() <= 1e-9 * diag
@@ -230,10 +230,26 @@ def test_pulled_subdivision_falls_back_without_a_boundary_order():
     V, T = _hypar_reference(10)
     Vq, Q = quad_grid(2, 2, 2.0, 2.0)
     Vq[:, :2] -= 1.0
-    Vs, Qs, _ = catmull_clark(Vq, Q, levels=1)
+    Vs, Qs, _ = subdivided_mesh(Vq, Q, levels=1)
     from components.subdivision.pull import pulled_subdivision
 
     # coarse vertices given in an unrelated place: no ordered anchors -> plain closest points
     res = pulled_subdivision(Vs, Qs, Vq[::-1] * 0.0, V, T)
     ref = pulled_vertices(Vs, Qs, V, T)
     assert np.allclose(res.V, ref.V)
+
+
+def test_pulled_subdivision_does_not_squeeze_the_first_row():
+    # canopy, resolution 32, 17 coarse faces: a coarse boundary vertex at the bottom of a concave dent moves back
+    # onto the boundary by more than an edge; with a harmonic follow-up its inward edge shrank to 0.078 × median
+    from components.subdivision.coarse import coarse_net
+    from components.subdivision.pull import pulled_subdivision
+    from components.surfaces.samples import sample_mesh
+
+    V, T, _ = sample_mesh("canopy", 32)
+    net = coarse_net(V, T, faces=17, layout="ogrid")
+    Vs, Qs, _ = subdivided_mesh(net.V, net.Q, levels=2)
+    X = pulled_subdivision(Vs, Qs, net.V, V, T).V
+    E = np.unique(np.sort(np.concatenate([Qs[:, [0, 1]], Qs[:, [1, 2]], Qs[:, [2, 3]], Qs[:, [3, 0]]]), axis=1), axis=0)
+    L = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
+    assert L.min() >= 0.2 * np.median(L)

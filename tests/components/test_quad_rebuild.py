@@ -222,3 +222,37 @@ def test_published_quad_rebuild_bad_inputs():
         quad_rebuild((V, T), panel_size=0)
     with pytest.raises(MeshError, match="mesh"):
         quad_rebuild((V, np.array([[0, 1]])), panel_size=2.0)
+
+
+def test_extend_covers_the_surface_with_healthy_cells(patch):
+    from components.metrics.health import face_health
+
+    V, T, l1, l2 = patch
+    trim = rebuild_from_network(V, T, l1, l2, 0.5, boundary_cells="trim")
+    ext = rebuild_from_network(V, T, l1, l2, 0.5, boundary_cells="extend")
+    validate_mesh(ext.V, ext.F)
+    assert len(boundary_loops(ext.F)) == 1
+    h = face_health(ext.V, ext.F, (V, T), tolerance=10.0)  # shape and coverage; a candidate is not planar yet
+    assert h.healthy, h.violations
+    assert h.coverage > face_health(trim.V, trim.F, (V, T), tolerance=10.0).coverage
+    assert h.coverage >= 0.95
+    assert set(face_sizes(ext.F).tolist()) <= {3, 4, 5}
+    # inside, the cells still follow the exact network: edges between crossings run along meridians or parallels
+    E = edge_topology(ext.F).E
+    th = np.arctan2(ext.V[:, 1], ext.V[:, 0])
+    dth = np.abs(th[E[:, 1]] - th[E[:, 0]]) * 4
+    dz = np.abs(ext.V[E[:, 1], 2] - ext.V[E[:, 0], 2])
+    ratio = np.minimum(dth, dz) / np.maximum(np.maximum(dth, dz), 1e-12)
+    inner = (ext.kind[E] == 0).all(axis=1)
+    assert np.median(ratio[inner]) < 1e-3
+    assert any("healed" in w for w in ext.warnings)
+
+
+def test_published_quad_rebuild_extend():
+    from components.surfaces.samples import sample_mesh
+
+    V, T, _ = sample_mesh("saddle", 24)
+    trim = quad_rebuild((V, T), panel_size=3.0)
+    ext = quad_rebuild((V, T), panel_size=3.0, boundary_cells="extend")
+    assert len(ext.candidate[1]) > len(trim.candidate[1])
+    assert trim.quad_fraction > 0.9 and ext.quad_fraction > 0.6

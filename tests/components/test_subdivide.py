@@ -10,10 +10,10 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, edge_topology, face_normals, face_sizes, pad_faces, quad_grid, read_mesh
 from components.subdivision.subdivide import (
     catmull_clark,
-    coarse_mesh,
+    control_mesh,
     face_count_after,
     limit_positions,
-    subdivide,
+    subdivided_mesh,
     subdivision_step,
 )
 from tests.conftest import shared_file
@@ -75,7 +75,7 @@ def _max_dihedral(V, Q):
 @pytest.mark.parametrize("levels", [1, 2, 3])
 def test_planar_grid_stays_planar_and_regular(planar_grid, levels):
     V, Q = planar_grid  # 6 × 4 quads on [0, 3] × [0, 2]
-    V1, Q1, info = catmull_clark(V, Q, levels=levels)
+    V1, Q1, info = subdivided_mesh(V, Q, levels=levels)
     s = 2 ** levels
     Vr, Qr = quad_grid(6 * s, 4 * s, 3.0, 2.0)
     assert np.all(V1[:, 2] == 0.0)
@@ -95,7 +95,7 @@ def test_planar_grid_stays_planar_and_regular(planar_grid, levels):
 def test_regular_grid_is_bicubic_bspline_refinement(levels):
     nu, nv = 5, 4
     V, Q = _lifted_grid(nu, nv)
-    V1, _, _ = catmull_clark(V, Q, levels=levels)
+    V1, _, _ = subdivided_mesh(V, Q, levels=levels)
     Z = V[:, 2].reshape(nv + 1, nu + 1)
     for level in range(levels):
         n_u, n_v = nu * 2 ** level, nv * 2 ** level
@@ -133,7 +133,7 @@ def test_boundary_is_cubic_bspline_subdivision_of_coarse_boundary(levels):
     nu, nv = 4, 3
     V, Q = _lifted_grid(nu, nv, seed=1)
     V[:, :2] += 0.1 * np.random.default_rng(2).normal(size=(len(V), 2))  # not a tensor grid any more
-    V1, Q1, info = catmull_clark(V, Q, levels=levels)
+    V1, Q1, info = subdivided_mesh(V, Q, levels=levels)
     corners = [0, nu, (nu + 1) * nv, (nu + 1) * (nv + 1) - 1]
     assert sorted(info.corners.tolist()) == corners
     loop = boundary_loops(Q1)[0]
@@ -155,7 +155,7 @@ def test_boundary_is_cubic_bspline_subdivision_of_coarse_boundary(levels):
 def test_limit_positions_on_grid_equal_bicubic_spline():
     nu, nv = 5, 4
     V, Q = _lifted_grid(nu, nv, seed=3)
-    V1, Q1, info = catmull_clark(V, Q, levels=1)
+    V1, Q1, info = subdivided_mesh(V, Q, levels=1)
     P = limit_positions(V1, Q1, corners=info.corners)
     Z = V[:, 2].reshape(nv + 1, nu + 1)
     # extend rows then columns with phantom points, evaluate the tensor-product spline with scipy
@@ -187,7 +187,7 @@ def _mixed_closed():
 def test_counts_per_level_follow_formulas(mixed_strip, which):
     V, F = {"strip": mixed_strip, "pyramid": _mixed_closed(), "tetra": _tetrahedron(), "cube": _cube()}[which]
     levels = 3
-    V1, Q1, info = catmull_clark(V, F, levels=levels)
+    V1, Q1, info = subdivided_mesh(V, F, levels=levels)
     nv, ne, nf = len(V), len(edge_topology(F).E), len(F)
     h = int(face_sizes(F).sum())
     for lv in info.levels:
@@ -202,7 +202,7 @@ def test_counts_per_level_follow_formulas(mixed_strip, which):
 
 def test_irregular_vertices_are_carried():
     V, T = _tetrahedron()
-    _, _, info = catmull_clark(V, T, levels=2)
+    _, _, info = subdivided_mesh(V, T, levels=2)
     lv0, lv1, lv2 = info.levels
     assert lv0.irregular_vertices.tolist() == [0, 1, 2, 3] and lv0.irregular_valences.tolist() == [3] * 4
     # level 1: the old four plus one face point per triangle (valence 3), indices n + e + f
@@ -219,14 +219,14 @@ def test_pentagon_and_valence_five_vertex():
     V = np.array([[0, 0, 0.3]] + ring, dtype=float)
     faces = [[0, 1 + (2 * i) % 10, 1 + (2 * i + 1) % 10, 1 + (2 * i + 2) % 10] for i in range(5)]
     F = pad_faces(faces, k=5)
-    V1, Q1, info = catmull_clark(V, F, levels=2)
+    V1, Q1, info = subdivided_mesh(V, F, levels=2)
     assert info.levels[0].irregular_vertices.tolist() == [0]
     assert info.levels[0].irregular_valences.tolist() == [5]
     assert info.levels[2].irregular_vertices.tolist() == [0]
     # a pentagon face adds an irregular face point of valence 5
     Vp = np.vstack([V, [[0.0, 0.0, -1.0]]])
     Fp = pad_faces([[1, 3, 5, 7, 9], [1, 2, 3], [3, 4, 5], [5, 6, 7], [7, 8, 9], [9, 10, 1]], k=5)
-    _, _, info2 = catmull_clark(Vp, Fp, levels=1)
+    _, _, info2 = subdivided_mesh(Vp, Fp, levels=1)
     e = len(edge_topology(Fp).E)
     assert len(Vp) + e + 0 in info2.levels[1].irregular_vertices.tolist()
     i = info2.levels[1].irregular_vertices.tolist().index(len(Vp) + e)
@@ -241,7 +241,7 @@ def test_cube_converges_toward_smooth_surface():
     V, F = _cube()
     angles = []
     for levels in range(1, 6):
-        V1, Q1, _ = catmull_clark(V, F, levels=levels)
+        V1, Q1, _ = subdivided_mesh(V, F, levels=levels)
         angles.append(_max_dihedral(V1, Q1))
     assert all(b < 0.65 * a for a, b in zip(angles, angles[1:])), angles  # about halves
     assert angles[-1] < 4.0
@@ -259,8 +259,8 @@ def test_subdivision_matrix_rows_are_convex_combinations(mixed_strip):
 
 def test_limit_positions_are_invariant_under_subdivision(hypar_grid):
     # the limit stencil is the left eigenvector of S for eigenvalue 1: limit(S V) == limit(V) on old vertices
-    cases = [catmull_clark(*_cube(), levels=1), catmull_clark(*_mixed_closed(), levels=1),
-             catmull_clark(*hypar_grid, levels=1), catmull_clark(*_tetrahedron(), levels=1)]
+    cases = [subdivided_mesh(*_cube(), levels=1), subdivided_mesh(*_mixed_closed(), levels=1),
+             subdivided_mesh(*hypar_grid, levels=1), subdivided_mesh(*_tetrahedron(), levels=1)]
     for V1, Q1, info in cases:
         step = subdivision_step(V1, Q1, corners=info.corners)
         V2 = step.S @ V1
@@ -270,13 +270,13 @@ def test_limit_positions_are_invariant_under_subdivision(hypar_grid):
 
 
 def test_vertices_converge_to_limit_positions():
-    V1, Q1, _ = catmull_clark(*_cube(), levels=1)
+    V1, Q1, _ = subdivided_mesh(*_cube(), levels=1)
     L = limit_positions(V1, Q1)
     errors = []
     V, Q = V1, Q1
     for _ in range(5):
         errors.append(np.abs(V[:len(V1)] - L).max())
-        V, Q, _ = catmull_clark(V, Q, levels=1)
+        V, Q, _ = subdivided_mesh(V, Q, levels=1)
     assert all(b < 0.5 * a for a, b in zip(errors, errors[1:])), errors
     assert errors[-1] < 1e-3
 
@@ -293,21 +293,21 @@ def test_sharp_turn_and_user_corners_stay_fixed():
     V[:, 2] = np.sin(V[:, 0]) * np.cos(V[:, 1])
     reflex = int(np.nonzero(np.all(V[:, :2] == [2.0, 2.0], axis=1))[0][0])
     side = int(np.nonzero(np.all(V[:, :2] == [1.0, 0.0], axis=1))[0][0])
-    V1, _, info = catmull_clark(V, Q, levels=2)
+    V1, _, info = subdivided_mesh(V, Q, levels=2)
     assert reflex in info.corners
     np.testing.assert_array_equal(V1[reflex], V[reflex])
     assert not np.array_equal(V1[side], V[side])
-    V2, _, info2 = catmull_clark(V, Q, levels=2, corners=[side])
+    V2, _, info2 = subdivided_mesh(V, Q, levels=2, corners=[side])
     assert side in info2.corners
     np.testing.assert_array_equal(V2[side], V[side])
     # with a 100° threshold the reflex corner is smoothed
-    V3, _, info3 = catmull_clark(V, Q, levels=1, corner_angle=np.radians(100))
+    V3, _, info3 = subdivided_mesh(V, Q, levels=1, corner_angle=np.radians(100))
     assert reflex not in info3.corners
 
 
 def test_linear_boundary_keeps_the_boundary_polygon():
     V, Q = _lifted_grid(4, 3, seed=5)
-    V1, Q1, _ = catmull_clark(V, Q, levels=2, boundary="linear")
+    V1, Q1, _ = subdivided_mesh(V, Q, levels=2, boundary="linear")
     loop0 = boundary_loops(Q)[0]
     A, B = V[loop0], V[np.roll(loop0, -1)]
     for p in V1[boundary_loops(Q1)[0]]:
@@ -317,7 +317,7 @@ def test_linear_boundary_keeps_the_boundary_polygon():
 
 def test_levels_zero_returns_input(mixed_strip):
     V, F = mixed_strip
-    V1, F1, info = catmull_clark(V, F, levels=0)
+    V1, F1, info = subdivided_mesh(V, F, levels=0)
     np.testing.assert_array_equal(V1, V)
     np.testing.assert_array_equal(F1, F)
     assert len(info.levels) == 1
@@ -325,7 +325,7 @@ def test_levels_zero_returns_input(mixed_strip):
 
 def test_real_quad_mesh_subdivides(request):
     V, F = read_mesh(shared_file("meshes/dos/obj_gnet__chebyshev_sphere.obj"))
-    V1, Q1, info = catmull_clark(V, F, levels=2)
+    V1, Q1, info = subdivided_mesh(V, F, levels=2)
     assert len(Q1) == 16 * len(F)
     assert len(info.levels[-1].irregular_vertices) == len(info.levels[0].irregular_vertices)
     # smoother: the largest dihedral angle drops
@@ -341,22 +341,22 @@ def test_flipped_face_is_rejected(planar_grid):
     Q = Q.copy()
     Q[7] = Q[7, ::-1]
     with pytest.raises(MeshError, match=r"^mesh: .*oriented"):
-        catmull_clark(V, Q)
+        subdivided_mesh(V, Q)
     with pytest.raises(MeshError, match=r"^mesh: "):
-        subdivide((V, Q))
+        catmull_clark((V, Q))
 
 
 def test_nonmanifold_edge_is_rejected(nonmanifold_fan):
     with pytest.raises(MeshError, match=r"^mesh: .*non-manifold"):
-        catmull_clark(*nonmanifold_fan)
+        subdivided_mesh(*nonmanifold_fan)
     with pytest.raises(MeshError, match=r"^coarse: "):
-        coarse_mesh(*nonmanifold_fan, name="coarse")
+        control_mesh(*nonmanifold_fan, name="coarse")
 
 
 @pytest.mark.parametrize("levels", [-1, 1.5, "2", True, None])
 def test_bad_levels(planar_grid, levels):
     with pytest.raises(InputError, match=r"^levels: "):
-        catmull_clark(*planar_grid, levels=levels)
+        subdivided_mesh(*planar_grid, levels=levels)
 
 
 def test_too_many_faces_refused_before_work(planar_grid, monkeypatch):
@@ -365,32 +365,32 @@ def test_too_many_faces_refused_before_work(planar_grid, monkeypatch):
 
     monkeypatch.setattr(subdiv, "_step", boom)
     with pytest.raises(InputError, match=r"^levels: .*limit"):
-        catmull_clark(*planar_grid, levels=40)  # 24 · 4^39 faces
+        subdivided_mesh(*planar_grid, levels=40)  # 24 · 4^39 faces
     with pytest.raises(InputError, match=r"^levels: "):
-        catmull_clark(*planar_grid, levels=3, max_faces=1535)  # 96 · 4² = 1536 faces
+        subdivided_mesh(*planar_grid, levels=3, max_faces=1535)  # 96 · 4² = 1536 faces
     with pytest.raises(InputError, match=r"^levels: "):
-        subdivide(planar_grid, levels=12)
+        catmull_clark(planar_grid, levels=12)
     with pytest.raises(AssertionError):
-        catmull_clark(*planar_grid, levels=3, max_faces=1536)  # at the limit: runs
+        subdivided_mesh(*planar_grid, levels=3, max_faces=1536)  # at the limit: runs
 
 
 def test_bad_options(planar_grid):
     with pytest.raises(InputError, match=r"^boundary: "):
-        catmull_clark(*planar_grid, boundary="smooth")
+        subdivided_mesh(*planar_grid, boundary="smooth")
     with pytest.raises(InputError, match=r"^corners: "):
-        catmull_clark(*planar_grid, corners=[1000])
+        subdivided_mesh(*planar_grid, corners=[1000])
     with pytest.raises(InputError, match=r"^corners: "):
-        catmull_clark(*planar_grid, corners=[0.5])
+        subdivided_mesh(*planar_grid, corners=[0.5])
     with pytest.raises(InputError, match=r"^corner_angle: "):
-        catmull_clark(*planar_grid, corner_angle=-1)
+        subdivided_mesh(*planar_grid, corner_angle=-1)
     with pytest.raises(InputError, match=r"^max_faces: "):
-        catmull_clark(*planar_grid, max_faces=0)
+        subdivided_mesh(*planar_grid, max_faces=0)
     with pytest.raises(InputError, match=r"^mesh: "):
-        subdivide(planar_grid[0])
+        catmull_clark(planar_grid[0])
     with pytest.raises(MeshError, match=r"^mesh: .*NaN"):
         V = planar_grid[0].copy()
         V[3, 1] = np.nan
-        subdivide((V, planar_grid[1]))
+        catmull_clark((V, planar_grid[1]))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -400,15 +400,15 @@ def test_bad_options(planar_grid):
 def test_published_component(mixed_strip):
     from ghserver.registry import declare
 
-    comp = declare(subdivide, "subdivide/catmull_clark")
+    comp = declare(catmull_clark, "subdivision/catmull_clark")
     assert [p.name for p in comp.inputs] == ["mesh", "levels", "boundary", "corners", "max_faces"]
     assert [p.name for p in comp.outputs] == ["mesh", "irregular_vertices", "irregular_valences", "vertex_count",
                                               "face_count"]
-    res = subdivide(_mixed_closed(), levels=2)
+    res = catmull_clark(_mixed_closed(), levels=2)
     V, Q = res.mesh
     assert Q.shape == (res.face_count, 4) and len(V) == res.vertex_count
     assert res.irregular_vertices.dtype == np.int64
     # pyramid: apex of valence 4 is regular; 4 base corners and 4 triangle face points have valence 3
     assert res.irregular_valences.tolist() == [3] * 8
     assert res.warnings == []
-    assert subdivide(mixed_strip, levels=0).warnings
+    assert catmull_clark(mixed_strip, levels=0).warnings

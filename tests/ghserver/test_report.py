@@ -2,7 +2,9 @@
 
 One quick report (all built-in surfaces, all strategies) is generated per session into a temporary folder; the tests
 check its files: pictures are PNGs of the fixed size with real content, their colour-bar limits are the metrics'
-min/max, CSV and JSON have one row per (strategy, surface), the HTML is well formed and every link resolves.
+min/max, CSV and JSON have one row per (strategy, surface), the HTML is well formed and every link resolves, and
+every row's status agrees with the panel health recomputed on the mesh saved next to it (issue #16: "ok" only for a
+healthy result within the planarity tolerance, otherwise the status names the defect).
 """
 from __future__ import annotations
 
@@ -19,7 +21,8 @@ import pytest
 from components import harness as st
 from ghserver.cli import main as cli_main
 from components.core.errors import InputError
-from components.core.mesh import boundary_loops, write_obj
+from components.core.mesh import boundary_loops, read_mesh, write_obj
+from components.metrics.health import DEFECT_BITS, face_health
 from components.metrics.quality import quad_planarity, vertex_distances
 from components.surfaces.samples import SAMPLE_NAMES, sample_mesh
 from components.surfaces.translation_fit import translation_candidate
@@ -78,6 +81,73 @@ def close(a, b, rtol=1e-9, atol=1e-15):
     return abs(a - b) <= atol + rtol * abs(b)
 
 
+class SummaryCells(HTMLParser):
+    """The text of every cell of the first table (the summary), row by row, and each row's class."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.rows: list[list[str]] = []
+        self.classes: list[str] = []
+        self.head: list[str] = []
+        self._tables = 0
+        self._cell = None
+        self._in_head = False
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "table":
+            self._tables += 1
+        if self._tables != 1:
+            return
+        if tag == "thead":
+            self._in_head = True
+        elif tag == "tr" and not self._in_head:
+            self.rows.append([])
+            self.classes.append(dict(attrs).get("class") or "")
+        elif tag in ("td", "th"):
+            self._cell = []
+        elif tag == "br" and self._cell is not None:
+            self._cell.append("\n")
+
+    def handle_endtag(self, tag):
+        if self._tables != 1:
+            return
+        if tag == "thead":
+            self._in_head = False
+        elif tag == "summary" and self._cell is not None:  # the notes' count, then one note per line
+            self._cell.append("\n")
+        elif tag in ("td", "th") and self._cell is not None:
+            text = "".join(self._cell)
+            (self.head if self._in_head else self.rows[-1]).append(text)
+            self._cell = None
+        elif tag == "table":
+            self._tables += 1
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def summary_cells(html_text: str) -> list[dict]:
+    """The summary table as one dict per row, keyed by the column titles (plus ``"class"``)."""
+    p = SummaryCells()
+    p.feed(html_text)
+    p.close()
+    return [dict(zip(p.head, r), **{"class": c}) for r, c in zip(p.rows, p.classes)]
+
+
+#: the panel-health bounds of issue #16, spelled out here (not read from the harness)
+BOUNDS = {"min_edge_ratio": 0.2, "min_angle": 20.0, "min_area_ratio": 0.1, "min_coverage": 0.85}
+
+
+def expected_status(h, tolerance: float) -> tuple[str, bool]:
+    """Status and healthy flag of a verdict, decided here from the per-face bits and the coverage."""
+    shape = np.any(h.face_defects & ~DEFECT_BITS["nonplanar"]) or h.coverage < BOUNDS["min_coverage"]
+    planar = float(np.max(h.planarity)) <= tolerance
+    if shape:
+        return "unhealthy", False
+    return ("ok" if planar else "tolerance missed"), True
+
+
 # ----------------------------------------------------------------------------------------------
 # the quick report, once
 
@@ -108,7 +178,12 @@ def test_one_row_per_strategy_and_surface(quick_report):
     assert [(r["strategy"], r["surface"]) for r in rows] == pairs
     # CSV numbers are the JSON numbers
     for row, res in zip(rows, data["results"]):
-        assert row["status"] == res["status"]
+        assert row["status"] == res["status"] and row["detail"] == res["detail"]
+        for k in ("coverage", "worst_corner", "shortest_edge_ratio"):
+            assert (row[k] == "") if res[k] is None else float(row[k]) == res[k]
+        assert row["healthy"] == ("" if res["healthy"] is None else str(res["healthy"]))
+        assert row["violations"] == " | ".join(res["violations"])
+        assert float(row["tolerance"]) == res["tolerance"]
         for stage in ("before", "after"):
             m = res[f"metrics_{stage}"]
             if m is None:
@@ -123,17 +198,72 @@ def test_one_row_per_strategy_and_surface(quick_report):
 def test_statuses_are_honest(quick_report):
     _, data = quick_report
     for r in data["results"]:
-        assert r["status"] in ("ok", "failed")
+        assert r["status"] in st.STATUSES
+        if r["status"] == "ok":  # ok only for a healthy result within the tolerance
+            assert r["healthy"] is True and r["violations"] == [] and r["coverage"] >= BOUNDS["min_coverage"]
+            assert (r["metrics_after"] or r["metrics_before"])["planarity_max"] <= r["tolerance"]
+        elif r["status"] == "failed":
+            assert r["healthy"] is None and r["images"] == [] and r["meshes"] == {}
+        else:  # the status names the defect
+            assert r["violations"] and r["detail"] and r["detail"] != r["description"]
+            assert (r["status"] == "unhealthy") == (r["healthy"] is False)
     by = {(r["strategy"], r["surface"]): r for r in data["results"]}
-    for surface in SAMPLE_NAMES:  # the two strategies that exist today run everywhere
-        assert by[("translation", surface)]["status"] == "ok"
-        assert by[("subdivision", surface)]["status"] == "ok"
+    for surface in SAMPLE_NAMES:  # translation and subdivision produce a mesh everywhere
+        assert by[("translation", surface)]["status"] != "failed"
+        assert by[("subdivision", surface)]["status"] != "failed"
         # translation surfaces are exact PQ, no optimization step
         t = by[("translation", surface)]
         assert t["metrics_before"]["planarity_max"] < 1e-12 and t["metrics_after"] is None
+        assert t["status"] != "tolerance missed"
         s = by[("subdivision", surface)]
         assert s["metrics_after"] is not None and s["timings"]["planarize"] > 0
         assert s["metrics_after"]["faces"] == s["metrics_before"]["faces"]
+        ok_after = s["metrics_after"]["planarity_max"] <= s["tolerance"]
+        assert s["status"] in (("ok", "unhealthy") if ok_after else ("tolerance missed", "unhealthy"))
+
+
+def test_status_agrees_with_panel_health_of_the_saved_mesh(quick_report):
+    """Every row's status, healthy flag and coverage are face_health's verdict on the final mesh written next to it
+    (recomputed here from the OBJ and the design surface, not taken from the harness)."""
+    summary, data = quick_report
+    cells = summary_cells(summary.html.read_text(encoding="utf-8"))
+    assert len(cells) == len(data["results"])
+    refs = {name: sample_mesh(name, rp.QUICK.resolution)[:2] for name in SAMPLE_NAMES}
+    for r, c in zip(data["results"], cells):
+        assert (c["surface"], c["strategy"]) == (r["surface"], r["strategy"])
+        if r["status"] == "failed":
+            assert not r["meshes"] and c["status"].startswith("failed: ")
+            continue
+        stage = "optimized" if "optimized" in r["meshes"] else "candidate"
+        V, F = read_mesh(summary.out_dir / r["meshes"][stage])
+        h = face_health(V, F, refs[r["surface"]], tolerance=r["tolerance"], **BOUNDS)
+        status, healthy = expected_status(h, r["tolerance"])
+        assert (r["status"], r["healthy"]) == (status, healthy), (r["surface"], r["strategy"], r["detail"])
+        assert r["violations"] == h.violations
+        assert close(r["coverage"], h.coverage, rtol=1e-9, atol=1e-12)
+        assert close(r["worst_corner"], h.worst_corner, rtol=1e-9, atol=1e-9)
+        assert close(r["shortest_edge_ratio"], h.shortest_edge_ratio, rtol=1e-9, atol=1e-12)
+        # the summary table shows the same verdict; "ok" only for healthy results within the tolerance
+        assert c["healthy"] == ("yes" if healthy else "no")
+        assert c["coverage"] == f"{h.coverage:.1%}"
+        if status == "ok":
+            assert c["status"] == "ok" and c["class"] == ""
+        else:
+            assert c["status"] == f"{status}: {r['detail']}" and c["class"] != ""
+            if status == "tolerance missed":
+                assert "max planarity" in c["status"] and "> tolerance" in c["status"]
+        notes = h.violations + r["warnings"]
+        lines = c["warnings"].split("\n")
+        assert lines[0] == (f"{len(notes)} note{'' if len(notes) == 1 else 's'}" if notes else "")
+        assert sorted(lines[1:]) == sorted(notes)
+
+
+def test_summary_columns(quick_report):
+    summary, _ = quick_report
+    p = SummaryCells()
+    p.feed(summary.html.read_text(encoding="utf-8"))
+    for title in ("status", "healthy", "coverage", "worst corner (°)", "shortest edge ÷ median", "warnings"):
+        assert title in p.head, title
 
 
 def test_images_are_pngs_of_the_expected_meshes(quick_report):
@@ -159,9 +289,9 @@ def test_images_are_pngs_of_the_expected_meshes(quick_report):
         assert png_size(path) == tuple(img["size"])
         n += 1
     assert n == summary.images
-    # every strategy that ran has 3 pictures per stage and one histogram figure
+    # every strategy that produced a mesh (healthy or not) has 3 pictures per stage and one histogram figure
     for r in data["results"]:
-        if r["status"] == "ok":
+        if r["status"] != "failed":
             stages = 1 + (r["metrics_after"] is not None)
             kinds = [i["kind"] for i in r["images"]]
             assert kinds.count("mesh") == 3 * stages and kinds.count("histogram") == 1
@@ -315,7 +445,9 @@ def test_every_strategy_runs_on_the_dome():
     h = st.default_panel_size(V, 8)
     for name in st.strategy_names():
         r = st.run_strategy(name, V, T, h, surface="dome", time_budget=10)
-        assert r.status == "ok", (name, r.detail)
+        assert r.status != "failed", (name, r.detail)
+        assert r.health is not None and r.candidate_health is not None
+        assert (r.status == "ok") == (r.healthy and r.health.counts["nonplanar"] == 0), (name, r.detail)
         Vc, Qc = r.candidate
         if name != "translation":  # the translation fit is exact PQ off the surface; the others are built on it
             d, _ = vertex_distances(Vc, V, T, signed=False)
@@ -327,11 +459,86 @@ def test_every_strategy_runs_on_the_dome():
 def test_run_strategy_result_shape():
     V, T, _ = sample_mesh("saddle", 16)
     r = st.run_strategy("subdivision", V, T, st.default_panel_size(V, 6), surface="saddle", time_budget=5)
-    assert r.status == "ok" and r.name == "subdivision" and r.surface == "saddle"
+    assert r.status in st.STATUSES and r.status != "failed", r.detail
+    assert r.name == "subdivision" and r.surface == "saddle" and r.tolerance == 1e-4
     assert r.optimized is not None and r.optimized[1].shape == r.candidate[1].shape
     assert r.final is r.optimized
     assert r.metrics_after["planarity_max"] <= r.metrics_before["planarity_max"] + 1e-12
     assert {"planarize", "total"} <= set(r.timings)
+
+
+def _wrapped_translation(monkeypatch, damage):
+    """Register ``"translation"`` with a runner that damages the translation candidate by ``damage(V, Q)``."""
+    original = st.get_strategy("translation")
+
+    def runner(V, T, panel_size, time_budget=30.0):
+        out = original.runner(V, T, panel_size, time_budget=time_budget)
+        Vc, Qc = out.candidate
+        Vc = Vc.copy()
+        damage(Vc, Qc)
+        return out._replace(candidate=(Vc, Qc))
+
+    patched = tuple(s._replace(runner=runner) if s.name == "translation" else s for s in st.STRATEGIES)
+    monkeypatch.setattr(st, "STRATEGIES", patched)
+
+
+def _collapse_column(V, Q):
+    """Squeeze one strip of panels to 0.003 of its width, as in issue #16 (panels still planar: the translation net
+    ``g(u) + h(v)`` with one step of ``g`` shrunk). The strip is walked across the grid from the middle face's edge
+    ``(Q[f, 0], Q[f, 1])`` to the opposite edge ``(Q[f, 3], Q[f, 2])`` of each face and back."""
+    f = len(Q) // 2
+    strip, todo = set(), [(int(Q[f, 0]), int(Q[f, 1]))]
+    while todo:
+        a, b = todo.pop()
+        if (a, b) in strip:
+            continue
+        strip.add((a, b))
+        for g in np.nonzero((Q[:, 0] == a) & (Q[:, 1] == b))[0]:
+            todo.append((int(Q[g, 3]), int(Q[g, 2])))
+        for g in np.nonzero((Q[:, 3] == a) & (Q[:, 2] == b))[0]:
+            todo.append((int(Q[g, 0]), int(Q[g, 1])))
+    assert len(strip) >= 3
+    for a, b in strip:
+        V[b] = V[a] + 0.003 * (V[b] - V[a])
+
+
+def test_collapsed_mesh_is_unhealthy(monkeypatch):
+    V, T, _ = sample_mesh("dome", 16)
+    _wrapped_translation(monkeypatch, _collapse_column)
+    r = st.run_strategy("translation", V, T, st.default_panel_size(V, 8), surface="dome")
+    assert r.status == "unhealthy" and r.healthy is False and r.candidate_healthy is False
+    assert "shorter than 0.2 × median edge" in r.detail and "smaller than 0.1 × median face area" in r.detail
+    assert r.violations == r.health.violations and r.description.startswith("translation surface")
+    # the verdict is face_health's, not the strategy's
+    h = face_health(*r.final, (V, T), tolerance=r.tolerance, **BOUNDS)
+    assert expected_status(h, r.tolerance) == ("unhealthy", False)
+
+
+def test_unhealthy_result_never_shows_ok(monkeypatch, tmp_path):
+    _wrapped_translation(monkeypatch, _collapse_column)
+    summary = rp.run_report(tmp_path, surfaces=["dome"], progress=False, quick=True, strategies=["translation"])
+    data = json.loads(summary.json.read_text())
+    (r,) = data["results"]
+    assert r["status"] == "unhealthy" and r["healthy"] is False and r["images"]  # pictured, not hidden
+    (c,) = summary_cells(summary.html.read_text(encoding="utf-8"))
+    assert c["status"].startswith("unhealthy: ") and "shorter than" in c["status"] and c["healthy"] == "no"
+    assert c["class"] == "unhealthy"
+    (row,) = csv.DictReader(io.StringIO(summary.csv.read_text()))
+    assert row["status"] == "unhealthy" and row["healthy"] == "False" and "shorter than" in row["violations"]
+    assert summary.statuses == (("dome", "translation", "unhealthy", r["detail"]),)
+
+
+def test_nonplanar_healthy_result_misses_the_tolerance(monkeypatch):
+    V, T, _ = sample_mesh("dome", 16)
+
+    def lift(Vc, Qc):  # one inner vertex lifted by 2 % of the panel size: its panels twist, nothing else
+        i = int(np.argmin(np.linalg.norm(Vc[:, :2] - Vc[:, :2].mean(axis=0), axis=1)))
+        Vc[i, 2] += 0.02 * np.linalg.norm(Vc[Qc[0, 1]] - Vc[Qc[0, 0]])
+
+    _wrapped_translation(monkeypatch, lift)
+    r = st.run_strategy("translation", V, T, st.default_panel_size(V, 8), surface="dome")
+    assert r.status == "tolerance missed" and r.healthy is True
+    assert r.detail.startswith("max planarity ") and "> tolerance 0.0001" in r.detail
 
 
 def test_failed_strategy_is_a_row(monkeypatch):
@@ -340,6 +547,7 @@ def test_failed_strategy_is_a_row(monkeypatch):
     monkeypatch.setattr(st, "STRATEGIES", st.STRATEGIES + (boom,))
     r = st.run_strategy("boom", V, T, 5.0)
     assert r.status == "failed" and "ZeroDivisionError" in r.detail and r.metrics_before is None
+    assert r.healthy is None and r.health is None and r.violations == ()
 
 
 def test_bad_inputs_name_the_input():

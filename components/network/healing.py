@@ -1,0 +1,1050 @@
+"""Healing of a rebuilt cell complex: no short edges, no flat or sharp corners, no oversized cells, full coverage.
+
+The quad rebuild (:mod:`components.network.rebuild`) turns a two-family line network into cells of a planar graph.
+Where the network is irregular the cells are not fabricable panels as they come:
+
+* **short edges** — two line ends stopping on one line close together (T-junctions), a line ending on the boundary
+  next to a crossing, two lines ending on the boundary side by side;
+* **flat corners** — a line stopping on another one leaves a corner of about 180° in the cell across it (a
+  T-junction), a boundary node that lost its line leaves one on the boundary;
+* **oversized cells** — holes of the network (skipped umbilic regions, lines stopped short of the boundary) are
+  cells with many corners, often non-convex;
+* **sharp or tiny cells** — where the boundary cuts the corner of a network cell.
+
+:func:`healed_cells` repairs them in rounds, in the plane of the rebuild (the cells are simple counter-clockwise
+polygons there, so every operation is checked for orientation and self-crossing) with lengths, areas and corner
+angles measured in 3D (the plane map need not be conformal):
+
+1. edges shorter than ``min_edge_ratio`` × the median edge are **collapsed** (a corner of the boundary stays put, a
+   boundary node keeps its place against a crossing, two crossings meet half-way, two boundary nodes half-way on
+   the boundary);
+2. **flat nodes** that only one cell uses (a boundary node whose line was removed) or that two cells pass straight
+   through are **dropped** from their cells;
+3. cells with a flat or reflex corner, or with more than ``max_face_size`` corners, are **split**: along a diagonal
+   between their own corners, greedily (each diagonal removes as many bad corners as it can and keeps the new
+   corners as wide as it can, preferring quads), or — where no diagonal removes the bad corner, or every one
+   would leave a node far from conical or with too many faces — by running the line that stops at the corner on
+   across the cell, to a corner near where it lands or to a new node on the far edge (the cell across that edge
+   takes the node and is healed in turn, the line runs on until it ends well: a T-junction's pentagon becomes two
+   quads, a hole becomes quads, triangles and pentagons);
+4. triangles with a sharp corner and cells under ``min_area_ratio`` × the median area are **collapsed** along
+   their shortest edge; a larger cell with a sharp corner is merged with a neighbour and split again;
+5. interior nodes with four cells whose conical angle criterion ``|ω1 − ω2 + ω3 − ω4|`` is far from 0 (the
+   conical optimization would have to bend the mesh away from the surface to meet it) are **moved** in the plane
+   until it is met, or given three cells (an edge removed) or five (a cell split at them).
+
+The cells keep their nodes and the lines their directions, except where two nodes meet half-way, a line is run on
+across a cell, or a node is moved for its criterion. Nodes with five or more cells (four on the boundary) are
+avoided where a choice exists: the conical criterion does not hold there, so a face offset is exact only to
+about the planarity of their star. Array-level: :func:`healed_cells`, :func:`manifold_cells`.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from collections import defaultdict
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from components.core.mesh import edge_topology, pad_faces
+
+log = logging.getLogger(__name__)
+
+__all__ = ["HealedCells", "NODE_BOUNDARY", "NODE_CORNER", "NODE_CROSSING", "healed_cells", "manifold_cells"]
+
+NODE_CROSSING, NODE_BOUNDARY, NODE_CORNER = 0, 1, 2
+_ROUNDS = 8  # healing rounds at most (each one collapses, drops and splits what it finds)
+
+
+class HealedCells(NamedTuple):
+    """Result of :func:`healed_cells`: the cells and their nodes (new nodes appended) and what was done."""
+
+    faces: list  # counter-clockwise node lists (in the plane)
+    uv: np.ndarray  # (nn', 2) node plane positions
+    X: np.ndarray  # (nn', 3) node surface positions
+    kind: np.ndarray  # (nn',) NODE_CROSSING, NODE_BOUNDARY or NODE_CORNER
+    collapsed: int  # short edges (and sharp or tiny cells) collapsed
+    restarred: int  # nodes with four cells far from conical given three or five
+    dropped_nodes: int  # flat nodes dropped from their cells
+    split: int  # cells split along a diagonal (each split counts once)
+    left_open: int  # cells still larger than max_face_size, left out
+
+
+def _cross2(a, b):
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+_ROLL: dict = {}
+
+
+def _roll(k: int):
+    """Index arrays ``(next, previous)`` of a ``k``-gon's corners."""
+    out = _ROLL.get(k)
+    if out is None:
+        out = _ROLL[k] = (np.r_[1:k, 0], np.r_[k - 1, 0:k - 1])
+    return out
+
+
+def _signed_area(P) -> float:
+    return 0.5 * float(np.sum(_cross2(P, P[_roll(len(P))[0]])))
+
+
+def _simple_ccw(P) -> bool:
+    """The polygon ``P (k, 2)`` turns counter-clockwise and no two of its non-adjacent edges meet."""
+    if _signed_area(P) <= 0.0:
+        return False
+    k = len(P)
+    if k <= 3:
+        return True
+    A, B = P, P[_roll(k)[0]]
+    for i in range(k):
+        for j in range(i + 2, k):
+            if i == 0 and j == k - 1:
+                continue
+            d1, d2 = _cross2(B[i] - A[i], A[j] - A[i]), _cross2(B[i] - A[i], B[j] - A[i])
+            d3, d4 = _cross2(B[j] - A[j], A[i] - A[j]), _cross2(B[j] - A[j], B[i] - A[j])
+            if d1 * d2 <= 0.0 and d3 * d4 <= 0.0:
+                return False
+    return True
+
+
+def _interior_angles(P) -> np.ndarray:
+    """Interior angles (degrees, 0..360) of a counter-clockwise polygon ``P (k, 2)``; above 180 is reflex."""
+    nx, pv = _roll(len(P))
+    nxt = P[nx] - P
+    prv = P[pv] - P
+    return np.degrees(np.mod(np.arctan2(_cross2(nxt, prv), np.einsum("ij,ij->i", nxt, prv)), 2.0 * math.pi))
+
+
+def _cross3(a, b):
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def _angle(a, b) -> float:
+    """Angle between two 3-vectors, radians (plain floats: cheaper than numpy for one pair)."""
+    ax, ay, az = float(a[0]), float(a[1]), float(a[2])
+    bx, by, bz = float(b[0]), float(b[1]), float(b[2])
+    cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz)
+
+
+def _angles3(P, Q) -> np.ndarray:
+    """Interior angles (degrees, 0..360) of a cell with counter-clockwise plane corners ``P (k, 2)`` and surface
+    corners ``Q (k, 3)``: the 3D angle, reflex (360° minus it) where the plane corner is reflex (the plane map need not
+    be conformal, the panels' angles are the 3D ones)."""
+    nx, pv = _roll(len(Q))
+    a = Q[nx] - Q
+    b = Q[pv] - Q
+    a3 = np.degrees(np.arctan2(np.sqrt(np.sum(_cross3(a, b) ** 2, axis=1)), np.einsum("ij,ij->i", a, b)))
+    return np.where(_interior_angles(P) <= 180.0, a3, 360.0 - a3)
+
+
+def _split_angles3(P, Q, i, tp, tq) -> np.ndarray:
+    """The two new corners (degrees, as in :func:`_angles3`) at corner ``i`` of a cell split by a segment to the
+    target (plane ``tp``, surface ``tq``): the one after the next edge first."""
+    k = len(P)
+    uv = _corner_split_angles(P, i, tp)
+    out = []
+    for (a, b), u in zip(((Q[(i + 1) % k] - Q[i], tq - Q[i]), (tq - Q[i], Q[(i - 1) % k] - Q[i])), uv):
+        a3 = math.degrees(_angle(a, b))
+        out.append(a3 if u <= 180.0 else 360.0 - a3)
+    return np.array(out)
+
+
+def _area3(X) -> float:
+    """Area of a (non-planar) polygon ``X (k, 3)`` by Newell's vector (relative to its centroid)."""
+    Y = X - X.mean(axis=0)
+    return 0.5 * float(np.sqrt(np.sum(_cross3(Y, Y[_roll(len(Y))[0]]).sum(axis=0) ** 2)))
+
+
+class _Complex:
+    """Faces as node lists with a half-edge map, node positions and kinds; edits are checked and atomic."""
+
+    def __init__(self, faces, uv, X, kind):
+        self.faces: dict[int, list[int]] = {}
+        self.he: dict[tuple[int, int], int] = {}
+        self.vf: dict[int, set] = defaultdict(set)
+        self.uv = [np.asarray(p, np.float64) for p in uv]
+        self.X = [np.asarray(p, np.float64) for p in X]
+        self.kind = [int(k) for k in kind]
+        self.next_id = 0
+        self._angle_cache: dict = {}
+        for f in faces:
+            self._insert(self._new_id(), list(f))
+
+    def _new_id(self) -> int:
+        self.next_id += 1
+        return self.next_id - 1
+
+    def _insert(self, fid, f):
+        self.faces[fid] = f
+        for a, b in zip(f, f[1:] + f[:1]):
+            self.he[(a, b)] = fid
+        for v in f:
+            self.vf[v].add(fid)
+
+    def _remove(self, fid):
+        f = self.faces.pop(fid)
+        for a, b in zip(f, f[1:] + f[:1]):
+            if self.he.get((a, b)) == fid:
+                del self.he[(a, b)]
+        for v in f:
+            self.vf[v].discard(fid)
+        return f
+
+    def add_node(self, uv, X, kind) -> int:
+        self.uv.append(np.asarray(uv, np.float64))
+        self.X.append(np.asarray(X, np.float64))
+        self.kind.append(int(kind))
+        return len(self.uv) - 1
+
+    def polygon(self, f) -> np.ndarray:
+        return np.array([self.uv[v] for v in f])
+
+    def forget_angles(self) -> None:
+        """Drop the cached angles (after a node moved)."""
+        self._angle_cache.clear()
+
+    def points(self, f) -> np.ndarray:
+        return np.array([self.X[v] for v in f])
+
+    def angles(self, f) -> np.ndarray:
+        """Interior angles of cell ``f`` (degrees, :func:`_angles3`; cached until a node moves)."""
+        key = tuple(f)
+        out = self._angle_cache.get(key)
+        if out is None:
+            out = self._angle_cache[key] = _angles3(self.polygon(f), self.points(f))
+        return out
+
+    def edit(self, remove: list, add: list, moved: dict | None = None) -> bool:
+        """Replace the faces ``remove`` (ids) by the node lists ``add``, with nodes ``moved`` {node: uv} at new
+        plane positions: done only when every new face is a simple counter-clockwise polygon with distinct nodes, no
+        half-edge is used twice and every face around a moved node stays simple and counter-clockwise."""
+        add = [f for f in add if f is not None]
+        for f in add:
+            if len(f) < 3 or len(set(f)) != len(f):
+                return False
+        old_uv = {}
+        if moved:
+            self._angle_cache.clear()
+        for v, p in (moved or {}).items():
+            old_uv[v] = self.uv[v]
+            self.uv[v] = np.asarray(p, np.float64)
+        saved = [(fid, self._remove(fid)) for fid in remove]
+        ok = True
+        new_he = set()
+        for f in add:
+            for a, b in zip(f, f[1:] + f[:1]):
+                if (a, b) in self.he or (a, b) in new_he:
+                    ok = False
+                new_he.add((a, b))
+            if ok and not _simple_ccw(self.polygon(f)):
+                ok = False
+        if ok and moved:
+            around = set().union(*(self.vf[v] for v in moved))
+            ok = all(_simple_ccw(self.polygon(self.faces[g])) for g in around)
+        if not ok:
+            for fid, f in saved:
+                self._insert(fid, f)
+            for v, p in old_uv.items():
+                self.uv[v] = p
+            return False
+        for f in add:
+            self._insert(self._new_id(), f)
+        return True
+
+    def edges(self) -> np.ndarray:
+        """Undirected edges ``(e, 2)`` (each once)."""
+        E = {(min(a, b), max(a, b)) for (a, b) in self.he}
+        return np.array(sorted(E), np.int64).reshape(-1, 2)
+
+    def corner_angles(self):
+        """``[(face id, node, interior angle in degrees)]`` of every corner, in the plane."""
+        out = []
+        for fid, f in self.faces.items():
+            for v, a in zip(f, self.angles(f)):
+                out.append((fid, v, float(a)))
+        return out
+
+
+# ----------------------------------------------------------------------------------------------
+# operations
+
+
+def _collapse(cx: _Complex, a: int, b: int, lift: Callable, project: Callable) -> bool:
+    """Merge node ``b`` into ``a`` (the survivor is the higher kind; two crossings meet half-way, two boundary
+    nodes half-way on the boundary). Refused when both are corners, when a face holds both without an edge between
+    them, or when a face would turn over."""
+    ka, kb = cx.kind[a], cx.kind[b]
+    if ka == NODE_CORNER and kb == NODE_CORNER:
+        return False
+    if kb > ka:
+        a, b, ka, kb = b, a, kb, ka
+    if ka == kb:
+        mid = 0.5 * (cx.uv[a] + cx.uv[b])
+        pos = project(mid[None])[0] if ka == NODE_BOUNDARY else mid
+    else:
+        pos = cx.uv[a]
+    remove, add = [], []
+    for fid in cx.vf[a] | cx.vf[b]:
+        f = cx.faces[fid]
+        if a in f and b in f:
+            i, j = f.index(a), f.index(b)
+            if (i - j) % len(f) not in (1, len(f) - 1):
+                return False
+        g = [a if v == b else v for v in f]
+        g = [v for k, v in enumerate(g) if v != g[k - 1]]
+        remove.append(fid)
+        add.append(g if len(g) >= 3 else None)
+    if not cx.edit(remove, add, moved={a: pos}):
+        return False
+    if ka == kb:
+        cx.X[a] = lift(np.asarray(pos)[None])[0]
+        cx.forget_angles()
+    cx.kind[a] = ka
+    return True
+
+
+def _split_choice(P, Q, min_angle: float, max_face_size: int, diag_scale: float, star_cost=None,
+                  strict: int = 0, irregular=None):
+    """The best diagonal ``(i, j)`` of the cell with counter-clockwise plane corners ``P (k, 2)`` and surface corners
+    ``Q (k, 3)`` (angles: :func:`_angles3`), or ``None``.
+
+    A diagonal must run inside the polygon. It is chosen for, in order: fewest bad corners left (flat, reflex or
+    sharp: outside ``[min_angle, 180 − min_angle]``) over both pieces, then the widest new corners, quads, and a
+    length under 1.5 × ``diag_scale``. ``None`` when no diagonal removes a bad corner and the polygon is small.
+    ``star_cost(i, a1, a2)``, when given, counts the nodes a split of corner ``i`` into ``a1``, ``a2`` (degrees)
+    would leave with four faces far from conical (ranked right after the bad corners). ``irregular(i)``, when
+    given, is 1 when one more edge at corner ``i`` makes its node irregular (five faces inside, four on the
+    boundary: no exact face offset there), ranked next. With ``strict`` 1 a diagonal leaving a star far from conical
+    is not taken, with 2 neither one leaving an irregular node (unless the polygon has more than ``max_face_size``
+    corners).
+    """
+    k = len(P)
+    ang = _angles3(P, Q)
+    bad = (ang < min_angle) | (ang > 180.0 - min_angle)
+    nbad = int(bad.sum())
+    if nbad == 0 and k <= max_face_size:
+        return None
+    best, best_key = None, None
+    for i in range(k):
+        for j in range(i + 2, k):
+            if i == 0 and j == k - 1:
+                continue
+            if not _diagonal_inside(P, i, j):
+                continue
+            d = P[j] - P[i]
+            new = np.r_[_split_angles3(P, Q, i, P[j], Q[j]), _split_angles3(P, Q, j, P[i], Q[i])]
+            left = nbad - int(bad[i]) - int(bad[j]) + int(np.sum((new < min_angle) | (new > 180.0 - min_angle)))
+            sizes = (j - i + 1, k - (j - i) + 1)
+            big = sum(s > max_face_size for s in sizes)
+            quality = float(np.minimum(new, 180.0 - new).min())
+            quads = sum(s == 4 for s in sizes)
+            tris = sum(s == 3 for s in sizes)
+            length = float(np.hypot(*d)) / diag_scale
+            stars = 0 if star_cost is None else star_cost(i, new[0], new[1]) + star_cost(j, new[2], new[3])
+            irr = 0 if irregular is None else irregular(i) + irregular(j)
+            if k <= max_face_size and ((strict >= 1 and stars) or (strict >= 2 and irr)):
+                continue
+            key = (-left, -big, -stars, -irr, quality + 12.0 * quads + 4.0 * tris - 30.0 * max(0.0, length - 1.5))
+            if best_key is None or key > best_key:
+                best, best_key = (i, j), key
+    if best is None:
+        return None
+    if -best_key[0] >= nbad and k <= max_face_size:
+        return None  # no bad corner removed
+    return best
+
+
+def _diagonal_inside(P, i, j) -> bool:
+    """The segment ``P[i] P[j]`` runs inside the counter-clockwise polygon ``P`` (inside the corner cones at both
+    ends, crossing no edge)."""
+    k = len(P)
+    for s, t in ((i, j), (j, i)):
+        v_next, v_prev = P[(s + 1) % k] - P[s], P[(s - 1) % k] - P[s]
+        d = P[t] - P[s]
+        interior = math.atan2(_cross2(v_next, v_prev), float(v_next @ v_prev)) % (2 * math.pi)
+        a = math.atan2(_cross2(v_next, d), float(v_next @ d)) % (2 * math.pi)
+        if not 1e-9 < a < interior - 1e-9:
+            return False
+    A, B = P[i], P[j]
+    for e in range(k):
+        f = (e + 1) % k
+        if e in (i, j) or f in (i, j):
+            continue
+        C, D = P[e], P[f]
+        d1, d2 = _cross2(B - A, C - A), _cross2(B - A, D - A)
+        d3, d4 = _cross2(D - C, A - C), _cross2(D - C, B - C)
+        if (d1 > 0) != (d2 > 0) and (d3 > 0) != (d4 > 0):
+            return False
+        if d1 == 0 or d2 == 0:  # an edge end on the diagonal
+            return False
+    return True
+
+
+def _split_face(cx: _Complex, fid: int, min_angle: float, max_face_size: int, diag_scale: float,
+                max_criterion: float, strict: int = 0) -> int:
+    """Split a face recursively along its best diagonals; returns the number of splits done."""
+    todo, done = [fid], 0
+    while todo:
+        g = todo.pop()
+        f = cx.faces.get(g)
+        if f is None:
+            continue
+        choice = _split_choice(cx.polygon(f), cx.points(f), min_angle, max_face_size, diag_scale,
+                               lambda i, a1, a2, g=g: _star_cost(cx, g, i, a1, a2, max_criterion), strict,
+                               lambda i, g=g: _irregular_after(cx, cx.faces[g][i]))
+        if choice is None:
+            continue
+        i, j = choice
+        before = set(cx.faces)
+        if not cx.edit([g], [f[i:j + 1], f[j:] + f[:i + 1]]):
+            continue
+        done += 1
+        todo += [h for h in cx.faces if h not in before]
+    return done
+
+
+# ----------------------------------------------------------------------------------------------
+# the healing rounds
+
+
+def healed_cells(faces, uv, X, kind, lift: Callable, project: Callable, *, min_edge_ratio: float = 0.25,
+                 min_angle: float = 22.0, min_area_ratio: float = 0.15, max_face_size: int = 5,
+                 max_criterion: float = 1.0, rounds: int = _ROUNDS) -> HealedCells:
+    """Collapse short edges, drop flat nodes, split bad cells and collapse sharp or tiny ones, in rounds; then give
+    the four-cell nodes far from conical a better star (see the module's steps 1–5).
+
+    The margins (22°, 0.25 × the median edge, 0.15 × the median area) stay above the panel-health bounds (20°, 0.2,
+    0.1) so that the optimization that follows has room.
+
+    Parameters
+    ----------
+    faces : list of list of int
+        Cells (node lists, counter-clockwise in the plane), a manifold complex.
+    uv : (nn, 2) float64
+        Node plane positions.
+    X : (nn, 3) float64
+        Node surface positions.
+    kind : (nn,) int64
+        ``NODE_CROSSING``, ``NODE_BOUNDARY`` or ``NODE_CORNER`` per node.
+    lift : callable
+        ``lift(P (p, 2)) -> (p, 3)``: plane points to the surface.
+    project : callable
+        ``project(P (p, 2)) -> (p, 2)``: plane points to the closest boundary point.
+    min_edge_ratio : float
+        Edges shorter than this × the median edge (3D) are collapsed.
+    min_angle : float
+        Corners outside ``[min_angle, 180 − min_angle]`` degrees (3D angles, reflex where the plane corner is) are
+        bad.
+    min_area_ratio : float
+        Cells smaller than this × the median cell area (3D) are collapsed.
+    max_face_size : int
+        Cells with more corners are split; those left larger after splitting are dropped (``left_open``).
+    max_criterion : float
+        An interior node with four cells whose conical angle criterion ``|ω1 − ω2 + ω3 − ω4|`` (3D corner angles,
+        radians) is above this is moved, or gets three or five cells (an edge removed or a cell split at it), so
+        the conical optimization is not asked to bend the mesh away from the surface there.
+    rounds : int
+        Largest number of healing rounds.
+
+    Returns
+    -------
+    HealedCells
+
+    Example
+    -------
+    >>> import numpy as np
+    >>> uv = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [1, 1], [0, 1], [1.05, 0.02]], float)
+    >>> X = np.c_[uv, np.zeros(7)]
+    >>> kind = np.array([1, 1, 1, 1, 1, 1, 0])
+    >>> h = healed_cells([[0, 6, 4, 5], [6, 1, 2, 3, 4]], uv, X, kind, lambda P: np.c_[P, np.zeros(len(P))],
+    ...                  lambda P: P)
+    >>> sorted(len(f) for f in h.faces), h.collapsed, h.split
+    ([4, 4], 1, 0)
+    """
+    cx = _Complex(faces, uv, X, kind)
+    counts = {"collapsed": 0, "dropped": 0, "split": 0, "restarred": 0}
+    for _ in range(rounds):
+        changed = _collapse_short(cx, lift, project, min_edge_ratio, counts)
+        changed |= _drop_flat_nodes(cx, min_angle, counts)
+        changed |= _split_bad(cx, min_angle, max_face_size, max_criterion, lift, project, counts)
+        changed |= _collapse_sharp_and_small(cx, lift, project, min_angle, min_area_ratio, max_face_size,
+                                             max_criterion, counts)
+        if not changed:
+            break
+    _conical_stars(cx, _Bounds(min_angle, min_edge_ratio, min_area_ratio, max_face_size, max_criterion), lift, counts)
+    out = [f for f in cx.faces.values() if len(f) <= max_face_size]
+    left_open = len(cx.faces) - len(out)
+    return HealedCells(out, np.array(cx.uv).reshape(-1, 2), np.array(cx.X).reshape(-1, 3),
+                       np.array(cx.kind, np.int64), counts["collapsed"], counts["restarred"], counts["dropped"],
+                       counts["split"], left_open)
+
+
+def manifold_cells(faces: list, n: int) -> tuple[list, int, int]:
+    """Drop cells until every node has a single fan (no bow-tie nodes), the non-quads at a bow-tie first, else all
+    but one fan of it.
+
+    Parameters
+    ----------
+    faces : list of list of int
+        Cells (node lists), consistently oriented.
+    n : int
+        Number of nodes.
+
+    Returns
+    -------
+    faces : list of list of int
+        The kept cells.
+    dropped : int
+        Cells dropped.
+    bow_ties : int
+        Bow-tie nodes found (over all passes).
+
+    Example
+    -------
+    >>> manifold_cells([[0, 1, 2, 3], [0, 4, 5, 6]], 7)  # two quads touching at node 0 only
+    ([[0, 1, 2, 3]], 1, 1)
+    """
+    dropped_total, bad_total = 0, 0
+    for _ in range(10):
+        if not faces:
+            break
+        topo = edge_topology(pad_faces(faces))
+        B = topo.E[topo.count == 1]
+        deg = np.bincount(B.ravel(), minlength=n)
+        bad = np.nonzero(deg > 2)[0]
+        if len(bad) == 0:
+            break
+        badset = set(bad.tolist())
+        drop = {i for i, f in enumerate(faces) if badset.intersection(f) and len(f) != 4}
+        if not drop:
+            for v in bad.tolist():
+                inc = [i for i, f in enumerate(faces) if v in f]
+                drop.update(inc[1:2])
+        dropped_total += len(drop)
+        bad_total += len(bad)
+        faces = [f for i, f in enumerate(faces) if i not in drop]
+    return faces, dropped_total, bad_total
+
+
+def _edge_lengths(cx: _Complex, E) -> np.ndarray:
+    X = np.array(cx.X)
+    return np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1)
+
+
+def _collapse_short(cx, lift, project, ratio, counts) -> bool:
+    E = cx.edges()
+    if not len(E):
+        return False
+    L = _edge_lengths(cx, E)
+    med = float(np.median(L))
+    touched, changed = set(), False
+    for e in np.argsort(L):
+        if L[e] >= ratio * med:
+            break
+        a, b = int(E[e, 0]), int(E[e, 1])
+        if a in touched or b in touched:
+            continue
+        if _collapse(cx, a, b, lift, project):
+            counts["collapsed"] += 1
+            touched.update((a, b))
+            changed = True
+    return changed
+
+
+def _drop_flat_nodes(cx, min_angle, counts) -> bool:
+    """Drop nodes (not corners) used by one cell at a nearly straight corner, or passed straight through by two."""
+    flat_at = defaultdict(list)
+    for fid, v, a in cx.corner_angles():
+        flat_at[v].append((fid, abs(a - 180.0) < min_angle))
+    changed = False
+    for v, lst in flat_at.items():
+        if cx.kind[v] == NODE_CORNER or not all(flat for _, flat in lst) or len(lst) > 2:
+            continue
+        fids = [fid for fid, _ in lst]
+        if set(fids) != cx.vf[v] or any(len(cx.faces[g]) <= 3 for g in fids):
+            continue
+        if len(lst) == 1 and cx.kind[v] == NODE_CROSSING:
+            continue  # an interior node of one cell is not on its boundary: leave it
+        if cx.edit(fids, [[u for u in cx.faces[g] if u != v] for g in fids]):
+            counts["dropped"] += 1
+            changed = True
+    return changed
+
+
+def _split_bad(cx, min_angle, max_face_size, max_criterion, lift, project, counts) -> bool:
+    """Split the cells with a flat or reflex corner or too many corners: along diagonals where one removes a bad
+    corner, else by running the line that stops at the bad corner on across the cell (:func:`_extend_through`)."""
+    E = cx.edges()
+    scale = float(np.median(np.linalg.norm(np.array(cx.uv)[E[:, 0]] - np.array(cx.uv)[E[:, 1]], axis=1))) \
+        if len(E) else 1.0
+    changed = False
+    todo = list(cx.faces)
+    budget = 4 * len(todo) + 100
+    while todo and budget > 0:
+        budget -= 1
+        fid = todo.pop()
+        f = cx.faces.get(fid)
+        if f is None:
+            continue
+        ang = cx.angles(f)
+        if not (len(f) > max_face_size or np.any(ang > 180.0 - min_angle)):
+            continue
+        before = set(cx.faces)
+        for strict in (2, 1, 0):  # first without irregular nodes or stars far from conical, then without the latter
+            n = _split_face(cx, fid, min_angle, max_face_size, scale, max_criterion, strict)
+            new = [g for g in cx.faces if g not in before]
+            if not n and fid in cx.faces:
+                new = _extend_through(cx, fid, min_angle, max_criterion, lift, project, strict)
+                n = int(bool(new))
+            if n:
+                counts["split"] += n
+                changed = True
+                todo += new
+                break
+    return changed
+
+
+def _extend_through(cx: _Complex, fid: int, min_angle: float, max_criterion: float, lift: Callable,
+                    project: Callable, strict: int = 0) -> list:
+    """Run a line that stops at a flat or reflex corner of cell ``fid`` on, straight across the cell, to its far
+    side: to a corner there when it lands near one, else to a new node on that edge (the cell across it, if any,
+    takes the node too and is healed in turn). Returns the ids of the new cells (empty when nothing was done)."""
+    f = cx.faces[fid]
+    k = len(f)
+    P, Q = cx.polygon(f), cx.points(f)
+    ang = _angles3(P, Q)
+    best = None
+    for i in np.argsort(-np.abs(ang - 180.0)):
+        if ang[i] <= 180.0 - min_angle:
+            continue
+        t = f[i]
+        dirs = [cx.uv[t] - cx.uv[s] for s in _neighbours(cx, t)]
+        v_next = P[(i + 1) % k] - P[i]
+        half = math.radians(0.5 * ang[i])
+        c, sn = math.cos(half), math.sin(half)
+        dirs.append(np.array([c * v_next[0] - sn * v_next[1], sn * v_next[0] + c * v_next[1]]))  # the bisector
+        for d in dirs:
+            nd = float(np.hypot(*d))
+            if nd <= 0.0:
+                continue
+            hit = _ray_exit(P, i, d / nd)
+            if hit is None:
+                continue
+            e, u, q = hit
+            for cand in _landings(P, Q, i, e, u, q):
+                new = _split_angles3(P, Q, i, cand[1], cand[3])
+                quality = float(np.minimum(new, 180.0 - new).min())
+                if quality < min_angle:
+                    continue
+                stars = _star_cost(cx, fid, int(i), new[0], new[1], max_criterion)
+                if cand[0] == "corner":
+                    stars += _star_cost(cx, fid, cand[2], *_split_angles3(P, Q, cand[2], P[i], Q[i]), max_criterion)
+                irr = _irregular_after(cx, f[i]) + (_irregular_after(cx, f[cand[2]]) if cand[0] == "corner" else 0)
+                if (strict >= 1 and stars) or (strict >= 2 and irr):
+                    continue
+                key = (-stars, -irr, quality + (10.0 if cand[0] == "corner" else 0.0))
+                if best is None or key > best[0]:
+                    best = (key, i, e, cand)
+        if best is not None:
+            break
+    if best is None:
+        return []
+    _, i, e, cand = best
+    before = set(cx.faces)
+    if cand[0] == "corner":
+        j = cand[2]
+        a, b = (i, j) if i < j else (j, i)
+        ok = cx.edit([fid], [f[a:b + 1], f[b:] + f[:a + 1]])
+    else:
+        ok = _insert_and_split(cx, fid, i, e, cand[1], lift, project)
+    return [g for g in cx.faces if g not in before] if ok else []
+
+
+def _neighbours(cx: _Complex, v: int) -> set:
+    return {b for fid in cx.vf[v] for a, b in zip(cx.faces[fid], cx.faces[fid][1:] + cx.faces[fid][:1])
+            if a == v} | {a for fid in cx.vf[v] for a, b in zip(cx.faces[fid], cx.faces[fid][1:] + cx.faces[fid][:1])
+                          if b == v}
+
+
+def _ray_exit(P, i, d):
+    """Where the ray from corner ``i`` of polygon ``P`` along unit ``d`` first meets an edge not at ``i``:
+    ``(edge index e, parameter u along P[e] → P[e+1], point)`` or ``None``."""
+    k = len(P)
+    o = P[i]
+    best = None
+    for e in range(k):
+        f = (e + 1) % k
+        if e == i or f == i:
+            continue
+        C, D = P[e], P[f]
+        w = D - C
+        den = _cross2(d, w)
+        if abs(den) <= 1e-12 * float(np.hypot(*w)):
+            continue
+        r = C - o
+        t = _cross2(r, w) / den
+        u = _cross2(r, d) / den
+        if t > 0.0 and -1e-9 <= u <= 1.0 + 1e-9 and (best is None or t < best[0]):
+            best = (t, e, float(np.clip(u, 0.0, 1.0)))
+    if best is None:
+        return None
+    t, e, u = best
+    return e, u, o + t * d
+
+
+def _landings(P, Q, i, e, u, q):
+    """Where a line from corner ``i`` exiting through edge ``e`` at ``u`` may end: the near corner (when ``u`` is
+    within 0.3 of an end) and the exit point itself (when it is inside 0.15..0.85), as ``(kind, plane point, corner
+    or edge index, surface point)``."""
+    k = len(P)
+    out = []
+    for j, uu in ((e, u), ((e + 1) % k, 1.0 - u)):
+        if uu < 0.3 and (j - i) % k not in (1, k - 1):
+            out.append(("corner", P[j], j, Q[j]))
+    if 0.15 < u < 0.85:
+        out.append(("point", q, e, Q[e] + u * (Q[(e + 1) % k] - Q[e])))
+    return out
+
+
+def _corner_split_angles(P, i, target) -> np.ndarray:
+    """The two new angles at corner ``i`` of ``P`` when a segment to ``target`` splits it (degrees)."""
+    k = len(P)
+    v_next, v_prev = P[(i + 1) % k] - P[i], P[(i - 1) % k] - P[i]
+    dd = target - P[i]
+    a1 = math.degrees(math.atan2(_cross2(v_next, dd), float(v_next @ dd)) % (2 * math.pi))
+    a2 = math.degrees(math.atan2(_cross2(dd, v_prev), float(dd @ v_prev)) % (2 * math.pi))
+    return np.array([a1, a2])
+
+
+def _insert_and_split(cx: _Complex, fid: int, i: int, e: int, q, lift, project) -> bool:
+    """Insert a node at ``q`` on edge ``e`` of cell ``fid`` (and of the cell across it, or on the boundary) and
+    split ``fid`` between corner ``i`` and the new node."""
+    f = cx.faces[fid]
+    k = len(f)
+    a, b = f[e], f[(e + 1) % k]
+    other = cx.he.get((b, a))
+    kind = NODE_CROSSING
+    if other is None:  # a boundary edge: the new node goes onto the design boundary
+        q = project(np.asarray(q)[None])[0]
+        kind = NODE_BOUNDARY
+    p = cx.add_node(q, lift(np.asarray(q)[None])[0], kind)
+    g = f[:e + 1] + [p] + f[e + 1:]  # p after position e
+    ip, ii = e + 1, (i if i <= e else i + 1)
+    lo, hi = min(ip, ii), max(ip, ii)
+    pieces = [g[lo:hi + 1], g[hi:] + g[:lo + 1]]
+    remove, add = [fid], pieces
+    if other is not None:
+        h = cx.faces[other]
+        j = h.index(b)
+        remove.append(other)
+        add = pieces + [h[:j + 1] + [p] + h[j + 1:]]
+    return cx.edit(remove, add)
+
+
+def _collapse_sharp_and_small(cx, lift, project, min_angle, min_area_ratio, max_face_size, max_criterion,
+                              counts) -> bool:
+    """Collapse the edge opposite a sharp corner of a triangle and the shortest edge of a tiny cell; merge a larger
+    cell with a sharp corner with its neighbour across one of that corner's edges and split the union again."""
+    areas = {fid: _area3(np.array([cx.X[v] for v in f])) for fid, f in cx.faces.items()}
+    if not areas:
+        return False
+    med = float(np.median(list(areas.values())))
+    todo, merges = [], []
+    for fid, f in cx.faces.items():
+        ang = cx.angles(f)
+        if len(f) == 3 and ang.min() < min_angle:
+            k = int(np.argmin(ang))
+            todo.append((f[(k + 1) % 3], f[(k + 2) % 3]))
+        elif areas[fid] < min_area_ratio * med:
+            L = [np.linalg.norm(cx.X[a] - cx.X[b]) for a, b in zip(f, f[1:] + f[:1])]
+            k = int(np.argmin(L))
+            todo.append((f[k], f[(k + 1) % len(f)]))
+        elif ang.min() < min_angle:
+            merges.append(fid)
+    touched, changed = set(), False
+    for a, b in todo:
+        if a in touched or b in touched or not cx.vf[a] or not cx.vf[b]:
+            continue
+        if _collapse(cx, a, b, lift, project):
+            counts["collapsed"] += 1
+            touched.update((a, b))
+            changed = True
+    for fid in merges:
+        f = cx.faces.get(fid)
+        if f is None or touched.intersection(f):
+            continue
+        k = int(np.argmin(cx.angles(f)))
+        for e in ((k - 1) % len(f), k):
+            fid = cx.he[(f[0], f[1])]  # a reverted try gives the cell a new id
+            if _remerged(cx, fid, e, min_angle, max_face_size, max_criterion):
+                counts["collapsed"] += 1
+                touched.update(f)
+                changed = True
+                break
+    return changed
+
+
+def _remerged(cx: _Complex, fid: int, e: int, min_angle: float, max_face_size: int, max_criterion: float) -> bool:
+    """Merge cell ``fid`` with its neighbour across its edge ``e`` and split the union again along its best
+    diagonals; kept only when every piece has at most ``max_face_size`` corners within ``[min_angle,
+    180 − min_angle]``."""
+    f = cx.faces[fid]
+    v, w = f[e], f[(e + 1) % len(f)]
+    g = cx.he.get((w, v))
+    if g is None:
+        return False
+    h = cx.faces[g]
+    if len(set(f) & set(h)) != 2:
+        return False
+    i, j = f.index(w), h.index(v)
+    merged = f[i:] + f[:i] + (h[j:] + h[:j])[1:-1]
+    before = set(cx.faces)
+    if not cx.edit([fid, g], [merged]):
+        return False
+    E = cx.edges()
+    scale = float(np.median(np.linalg.norm(np.array(cx.uv)[E[:, 0]] - np.array(cx.uv)[E[:, 1]], axis=1)))
+    _split_face(cx, cx.next_id - 1, min_angle, max_face_size, scale, max_criterion)
+    pieces = [q for q in cx.faces if q not in before]
+    ok = all(len(cx.faces[q]) <= max_face_size and min_angle <= cx.angles(cx.faces[q]).min() and
+             cx.angles(cx.faces[q]).max() <= 180.0 - min_angle for q in pieces)
+    if not ok:
+        cx.edit(pieces, [f, h])
+    return ok
+
+
+def _merged_across(cx: _Complex, fid: int, e: int, min_angle: float, max_face_size: int):
+    """Cell ``fid`` merged with its neighbour across its edge ``e`` (``f[e] → f[e+1]``): ``(quality, neighbour id,
+    merged node list)`` when the merged cell has at most ``max_face_size`` corners within ``[min_angle,
+    180 − min_angle]``, else ``None``."""
+    f = cx.faces[fid]
+    v, w = f[e], f[(e + 1) % len(f)]
+    g = cx.he.get((w, v))
+    if g is None:
+        return None
+    h = cx.faces[g]
+    if len(f) + len(h) - 2 > max_face_size or len(set(f) & set(h)) != 2:
+        return None
+    i = f.index(w)
+    fw = f[i:] + f[:i]  # starts at w, ends at v
+    j = h.index(v)
+    hv = h[j:] + h[:j]  # starts at v, ends at w
+    merged = fw + hv[1:-1]
+    ang = cx.angles(merged)
+    if ang.max() > 180.0 - min_angle or ang.min() < min_angle:
+        return None
+    return float(np.minimum(ang, 180.0 - ang).min()), g, merged
+
+
+# ----------------------------------------------------------------------------------------------
+# vertex stars the conical optimization can satisfy
+
+
+def _ring(cx: _Complex, v: int):
+    """Faces around an interior node ``v`` in cyclic order with the 3D corner angle at ``v`` in each (``None`` for
+    a boundary node)."""
+    fids = cx.vf[v]
+    if not fids:
+        return None
+    start = next(iter(fids))
+    ring, fid = [], start
+    for _ in range(len(fids) + 1):
+        f = cx.faces[fid]
+        i = f.index(v)
+        p, n = f[i - 1], f[(i + 1) % len(f)]
+        a, b = cx.X[p] - cx.X[v], cx.X[n] - cx.X[v]
+        ring.append((fid, _angle(a, b)))
+        fid = cx.he.get((v, p))
+        if fid is None:
+            return None
+        if fid == start:
+            return ring if len(ring) == len(fids) else None
+    return None
+
+
+def _irregular_after(cx: _Complex, v: int) -> int:
+    """1 when one more edge at node ``v`` gives it five faces inside or four on the boundary, else 0."""
+    n = len(cx.vf[v]) + 1
+    return int(n >= 5 or (n >= 4 and _ring(cx, v) is None))
+
+
+def _star_cost(cx: _Complex, fid: int, i: int, a1: float, a2: float, max_criterion: float) -> int:
+    """1 when splitting corner ``i`` of face ``fid`` into ``a1`` then ``a2`` (degrees, counter-clockwise) leaves its
+    node interior with four faces and a conical criterion above ``max_criterion``, else 0."""
+    v = cx.faces[fid][i]
+    if len(cx.vf[v]) != 3:
+        return 0
+    ring = _ring(cx, v)
+    if ring is None:
+        return 0
+    w = []
+    for g, a in ring:
+        w += [math.radians(a1), math.radians(a2)] if g == fid else [a]
+    return int(abs(w[0] - w[1] + w[2] - w[3]) > max_criterion)
+
+
+def _criterion(cx: _Complex, v: int) -> float:
+    """``|ω1 − ω2 + ω3 − ω4|`` at an interior node with four faces, else 0."""
+    ring = _ring(cx, v)
+    if ring is None or len(ring) != 4:
+        return 0.0
+    w = [a for _, a in ring]
+    return abs(w[0] - w[1] + w[2] - w[3])
+
+
+class _Bounds(NamedTuple):
+    min_angle: float  # degrees, in the plane
+    min_edge_ratio: float  # × median edge (3D)
+    min_area_ratio: float  # × median face area (3D)
+    max_face_size: int
+    max_criterion: float  # radians
+
+
+def _sizes_ok(cx: _Complex, faces, b: _Bounds, med_edge: float, med_area: float, X=None) -> bool:
+    """Every face of ``faces`` (node lists) has edges and an area above the bounds (3D, ``X`` overriding node
+    positions: {node: point})."""
+    X = X or {}
+    for f in faces:
+        P = np.array([X.get(v, cx.X[v]) for v in f])
+        if np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).min() < b.min_edge_ratio * med_edge:
+            return False
+        if _area3(P) < b.min_area_ratio * med_area:
+            return False
+    return True
+
+
+def _conical_stars(cx: _Complex, b: _Bounds, lift, counts) -> None:
+    """Give every interior node with four faces far from the conical criterion a better star: moved in the plane
+    until the criterion is met, or three faces (an edge removed), or five (a face split at it); the corners stay
+    within ``[min_angle, 180 − min_angle]``, edges and areas above their bounds."""
+    E = cx.edges()
+    if not len(E):
+        return
+    med_edge = float(np.median(_edge_lengths(cx, E)))
+    med_area = float(np.median([_area3(np.array([cx.X[v] for v in f])) for f in cx.faces.values()]))
+    for _ in range(4):
+        bad = sorted(((_criterion(cx, v), v) for v in list(cx.vf) if len(cx.vf[v]) == 4), reverse=True)
+        bad = [v for c, v in bad if c > b.max_criterion]
+        if not bad:
+            return
+        done = False
+        for v in bad:
+            if len(cx.vf[v]) == 4 and _criterion(cx, v) > b.max_criterion:
+                if _relocate(cx, v, b, lift, med_edge, med_area) or _remove_edge_at(cx, v, b) or \
+                        _split_at(cx, v, b, med_edge, med_area):
+                    counts["restarred"] += 1
+                    done = True
+        if not done:
+            return
+
+
+def _remove_edge_at(cx, v, b: _Bounds) -> bool:
+    """Merge two faces across an edge at ``v`` when the merged face is small and convex enough and the other end
+    of the edge does not become a four-face node far from conical."""
+    best = None
+    for fid in list(cx.vf[v]):
+        f = cx.faces[fid]
+        e = f.index(v)
+        o = _merged_across(cx, fid, e, b.min_angle, b.max_face_size)
+        if o is not None and (best is None or o[0] > best[0]):
+            best = (o[0], fid, o[1], o[2], f[(e + 1) % len(f)])
+    if best is None:
+        return False
+    _, fid, g, merged, w = best
+    f, h = cx.faces[fid], cx.faces[g]
+    if not cx.edit([fid, g], [merged]):
+        return False
+    if len(cx.vf[w]) == 4 and _criterion(cx, w) > b.max_criterion:
+        cx.edit([cx.next_id - 1], [f, h])  # the other end would be far from conical: undone
+        return False
+    return True
+
+
+def _split_at(cx, v, b: _Bounds, med_edge, med_area) -> bool:
+    """Split a face at ``v`` along a diagonal from ``v`` that keeps the corners healthy (preferring one whose other
+    end does not get four faces)."""
+    best = None
+    for fid in list(cx.vf[v]):
+        f = cx.faces[fid]
+        k = len(f)
+        if k < 4:
+            continue
+        i = f.index(v)
+        P, Q = cx.polygon(f), cx.points(f)
+        for j in range(k):
+            if (j - i) % k in (0, 1, k - 1) or not _diagonal_inside(P, i, j):
+                continue
+            new = np.r_[_split_angles3(P, Q, i, P[j], Q[j]), _split_angles3(P, Q, j, P[i], Q[i])]
+            if new.min() < b.min_angle or new.max() > 180.0 - b.min_angle:
+                continue
+            lo, hi = min(i, j), max(i, j)
+            pieces = [f[lo:hi + 1], f[hi:] + f[:lo + 1]]
+            if max(len(q) for q in pieces) > b.max_face_size or not _sizes_ok(cx, pieces, b, med_edge, med_area):
+                continue
+            quality = float(np.minimum(new, 180.0 - new).min()) - 15.0 * sum(len(q) == 3 for q in pieces)
+            u = f[j]
+            if len(cx.vf[u]) == 3 and _ring(cx, u) is not None:
+                quality -= 30.0  # the other end gets four faces: maybe far from conical, handled in the next pass
+            if best is None or quality > best[0]:
+                best = (quality, fid, pieces, f[j])
+    if best is None:
+        return False
+    return cx.edit([best[1]], best[2])
+
+
+def _relocate(cx: _Complex, v: int, b: _Bounds, lift: Callable, med_edge: float, med_area: float) -> bool:
+    """Move an interior crossing with four faces in the plane (Gauss-Newton on its criterion measured with plane
+    angles, steps under a fifth of its shortest edge) until the criterion is under half ``max_criterion``; kept when
+    the 3D criterion is under ``max_criterion``, the corners of its faces within ``[min_angle, 180 − min_angle]``
+    and its edges and areas above their bounds."""
+    if cx.kind[v] != NODE_CROSSING:
+        return False
+    ring = _ring(cx, v)
+    if ring is None or len(ring) != 4:
+        return False
+    fids = [g for g, _ in ring]
+    faces = [cx.faces[g] for g in fids]
+    p0 = cx.uv[v].copy()
+
+    def criterion(p):  # in the plane
+        cx.uv[v] = p
+        w = np.radians([_interior_angles(cx.polygon(f))[f.index(v)] for f in faces])
+        cx.uv[v] = p0
+        return w[0] - w[1] + w[2] - w[3]
+
+    reach = min(float(np.hypot(*(cx.uv[u] - p0))) for u in _neighbours(cx, v))
+    p = p0.copy()
+    c = criterion(p)
+    for _ in range(12):
+        eps = 1e-4 * reach
+        g = np.array([(criterion(p + eps * e) - c) / eps for e in np.eye(2)])
+        gg = float(g @ g)
+        if gg <= 0.0:
+            return False
+        step = -c * g / gg
+        n = float(np.hypot(*step))
+        if n > 0.2 * reach:
+            step *= 0.2 * reach / n
+        p = p + step
+        if float(np.hypot(*(p - p0))) > 0.6 * reach:
+            return False
+        c = criterion(p)
+        if abs(c) < 0.5 * b.max_criterion:
+            Xp, X0 = lift(p[None])[0], cx.X[v]
+            cx.X[v], cx.uv[v] = Xp, p
+            cx.forget_angles()
+            ang3 = np.concatenate([cx.angles(f) for f in faces])
+            ok = _criterion(cx, v) < b.max_criterion and b.min_angle <= ang3.min() and \
+                ang3.max() <= 180.0 - b.min_angle
+            cx.X[v], cx.uv[v] = X0, p0
+            cx.forget_angles()
+            if not ok or not _sizes_ok(cx, faces, b, med_edge, med_area, {v: Xp}) or \
+                    not cx.edit(fids, faces, moved={v: p}):
+                return False
+            cx.X[v] = Xp
+            cx.forget_angles()
+            return True
+    return False

@@ -1,0 +1,210 @@
+"""Phases and outer loop of the planarization solver: continuation, stopping, the best state.
+
+Phases: *restore* (feasibility steps with backtracking until the tolerance is met: planarity converges
+quadratically), *optimize* (``Δf + tΔo`` while planarity stays within ``κ ×`` the tolerance and the soft objective
+decreases: this walks along the planar meshes toward the smallest displacement / closest fit / fairest net; a step
+is only taken while the quadratic model, solved with the previous iteration's factorization, promises at least 1 %
+of the objective and as much as moving every vertex 1 % of an edge), *polish* (feasibility steps back below the
+tolerance). The best state seen is kept: the returned one is never worse than the input in planarity, and when
+the tolerance was met once, the state that met it with the smallest soft objective wins over a later one that
+does not.
+
+Example
+-------
+>>> import time
+>>> from components.core.mesh import quad_grid
+>>> from components.planarize.guard import panel_guard
+>>> from components.planarize.problem import checked_options, setup_problem
+>>> V, F = quad_grid(4, 4, 4.0, 4.0)
+>>> V[:, 2] = 0.05 * V[:, 0] * V[:, 1]
+>>> prob = setup_problem(V, F, None, checked_options(len(V)))
+>>> run = iterate(prob, panel_guard(prob), time.perf_counter())
+>>> run.converged, run.stop_reason, final_state(run).score <= 1.0
+(True, 'tolerance reached', True)
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from components.planarize.guard import State, evaluate
+from components.planarize.problem import closeness
+from components.planarize.rows import soft_terms
+from components.planarize.step import Factorization, Step, predicted_gain, solve_step
+
+log = logging.getLogger(__name__)
+
+__all__ = ["Run", "start", "iterate", "final_state"]
+
+_OPT_STEP = 1e-3  # optimize phase ends when the optimality step moves no vertex more than this (mean edges)
+_OPT_DECREASE = 0.01  # optimize phase ends when an iteration lowers the soft objective by less than this fraction
+_OPT_MIN_MOVE = 0.01  # ... or promises less than moving every vertex this far (mean edges) would (½ d² each)
+_STALL = 10  # iterations without improvement before giving up
+_SLOW = 0.01  # ... or without the worst face improving by this fraction
+
+
+@dataclass
+class Run:
+    """The outer loop's state."""
+
+    t0: float  # perf_counter at the start of the call (the time budget counts from here)
+    cur: State
+    best: State  # lowest score seen
+    start_score: float
+    sticky: np.ndarray  # (c + e + m + i,) bool, guard items whose rows are kept from step to step
+    hist: dict = field(default_factory=lambda: dict(maxp=[], meanp=[], maxc=[], meanc=[], t=[]))
+    converged: bool = False
+    stop_reason: str = ""
+    it: int = 0
+    phase: str = "restore"
+    t_opt: float = 1.0  # fraction of the optimality step the next optimize step tries first
+    opt_its: int = 0
+    since_best: int = 0
+    mark: float = float("inf")  # the worst-face score the next 1 % of progress is measured from
+    since_mark: int = 0  # iterations since the score last dropped 1 % below the mark
+    guard_reset: bool = False  # the sticky guard rows were dropped once after a failed step
+    feasible_best: tuple | None = None  # (state, soft objective) of the best state that met the tolerance
+    soft_cache: tuple | None = None  # (X, soft_terms(X)) of the current state, when the optimize test computed it
+    last_fact: Factorization | None = None  # of the latest accepted step
+    blocked_by: tuple = ()  # the guards that rejected the last trials of a failed step
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.t0
+
+
+def _record(prob, run: Run, st: State):
+    """Append the planarity and closeness of ``st`` and the elapsed time to the history."""
+    pl, cl = st.planarity, closeness(prob, st.X)
+    run.hist["maxp"].append(float(pl.max()))
+    run.hist["meanp"].append(float(pl.mean()))
+    run.hist["maxc"].append(float(cl.max()))
+    run.hist["meanc"].append(float(cl.mean()))
+    run.hist["t"].append(run.elapsed())
+
+
+def start(prob, guard, t0: float) -> Run:
+    """The run at the input (sliding vertices put on their loops), before any step."""
+    Xs, tangents = prob.project_slide(prob.X0)
+    cur = evaluate(prob, guard, Xs, tangents)
+    run = Run(t0=t0, cur=cur, best=cur, start_score=cur.score, sticky=np.zeros(guard.n_items, dtype=bool))
+    _record(prob, run, cur)
+    run.converged = cur.score <= 1.0
+    if run.converged:
+        run.stop_reason = "tolerance reached (input already planar)"
+    if prob.ndof == 0 and not run.converged:
+        run.stop_reason = "no free vertex to move"
+    return run
+
+
+def _to_polish(run: Run):
+    run.phase = "polish"
+    run.since_best = 0
+    run.converged = run.cur.score <= 1.0
+
+
+def _optimize_promises_enough(prob, run: Run) -> bool:
+    """Whether the next optimize step promises enough (the soft terms at the current state are cached)."""
+    run.soft_cache = (run.cur.X, soft_terms(prob, run.cur.X))
+    gain, f_here = predicted_gain(prob, run.cur.X, run.soft_cache[1], run.last_fact)
+    log.debug("   optimize test: predicted gain %.4g of f %.6g (%.3g%%)", gain, f_here,
+              100 * gain / max(f_here, 1e-300))
+    return not (gain < _OPT_DECREASE * f_here or gain < 0.5 * _OPT_MIN_MOVE**2 * prob.ndof / 3.0)
+
+
+def iterate(prob, guard, t0: float) -> Run:
+    """Run the phases until a stop reason is set; see :func:`final_state` for the state to return."""
+    opts = prob.opts
+    run = start(prob, guard, t0)
+    while not run.stop_reason:
+        if run.converged:
+            if run.phase == "restore" and opts.optimize_iterations > 0 and run.elapsed() < 0.5 * opts.time_budget:
+                run.phase = "optimize"
+            elif run.phase != "optimize":
+                run.stop_reason = "tolerance reached"
+                break
+        if run.phase == "optimize" and run.last_fact is not None and not _optimize_promises_enough(prob, run):
+            _to_polish(run)  # the next optimize step promises too little: polish (when needed) and stop
+            continue
+        if run.it >= opts.max_iterations:
+            run.stop_reason = f"iteration cap ({opts.max_iterations}) reached"
+            break
+        if run.elapsed() > opts.time_budget:
+            run.stop_reason = f"time budget ({opts.time_budget:g} s) reached"
+            break
+        X = run.cur.X
+        soft = run.soft_cache[1] if run.soft_cache is not None and run.soft_cache[0] is X else soft_terms(prob, X)
+        run.soft_cache = None
+        optimize = run.phase == "optimize"
+        step = solve_step(prob, guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize)
+        if step.singular:
+            run.stop_reason = "the linear system is singular (coincident vertices or collapsed faces in the mesh)"
+            break
+        if step.accepted is None:
+            run.blocked_by = step.failed
+            if optimize:  # no soft progress left within the tolerance band: polish
+                _to_polish(run)
+                continue
+            if run.sticky.any() and not run.guard_reset:  # the guard rows kept from earlier steps may be what
+                run.sticky[:] = False  # blocks this one: retry once with only the corners the state needs
+                run.guard_reset = True
+                continue
+            if run.best.score <= 1.0:
+                run.stop_reason = "no further progress"
+            elif step.failed:
+                run.stop_reason = f"no step keeps the panels healthy ({' / '.join(step.failed)} guard)"
+            else:
+                run.stop_reason = "no step lowers the planarity further"
+            break
+        _advance(prob, run, step, soft[2], optimize)
+    return run
+
+
+def _advance(prob, run: Run, step: Step, f_cur: float, optimize: bool):
+    """Take the accepted step: history, best states, phase change or stall."""
+    opts = prob.opts
+    run.guard_reset = False
+    run.it += 1
+    run.cur = cur = step.accepted
+    run.last_fact = step.fact
+    _record(prob, run, cur)
+    step_opt = step.t * float(np.abs(step.do).max()) if optimize else 0.0
+    log.debug("planarize it %d (%s): score %.3g max %.3e t %.3g beta %.3g opt step %.2e guard rows %d",
+              run.it, run.phase, cur.score, run.hist["maxp"][-1], step.t, step.beta, step_opt,
+              int(step.guard_sel.sum()))
+    if cur.score < run.best.score or (cur.score <= run.best.score and cur.excess < run.best.excess):
+        run.best = cur
+        run.since_best = 0
+    else:
+        run.since_best += 1
+    run.converged = cur.score <= 1.0
+    if run.converged and (run.feasible_best is None
+                          or soft_terms(prob, cur.X, value_only=True) < run.feasible_best[1]):
+        run.feasible_best = (cur, soft_terms(prob, cur.X, value_only=True))
+    if optimize:
+        run.opt_its += 1
+        run.t_opt = min(1.0, 2.0 * step.t)
+        if (run.opt_its >= opts.optimize_iterations or step_opt < _OPT_STEP
+                or f_cur - step.f_new < _OPT_DECREASE * f_cur or run.elapsed() > 0.5 * opts.time_budget):
+            run.phase = "polish"
+            run.since_best = 0
+    elif run.since_best >= _STALL and not run.converged:
+        run.stop_reason = f"stalled (no improvement in {_STALL} iterations)"
+    if cur.score < (1.0 - _SLOW) * run.mark or run.phase != "restore":
+        run.mark, run.since_mark = cur.score, 0
+    else:
+        run.since_mark += 1
+        if run.since_mark >= _STALL and not run.converged and not run.stop_reason:
+            run.stop_reason = (f"stalled (the worst face improved less than {_SLOW:.0%} in {_STALL} iterations: "
+                               "the panel-health guard holds it)")
+
+
+def final_state(run: Run) -> State:
+    """The state to return: the current one when it meets the tolerance, else the earlier state that met it with
+    the smallest soft objective, else the best state seen (``run.converged`` and ``run.stop_reason`` updated)."""
+    if not run.converged and run.feasible_best is not None:
+        run.cur, run.converged = run.feasible_best[0], True
+        run.stop_reason = f"tolerance reached (best state that met it; then {run.stop_reason})"
+    return run.cur if run.converged else run.best

@@ -1,0 +1,225 @@
+"""One step of the planarization solver: solve the face-sized system, search along the step, accept or not.
+
+Every iteration solves one sparse SPD system with one row per hard row, ``(J G Jᵀ) λ = rhs`` with ``G`` the
+inverse metric of the soft goals (:func:`components.planarize.rows.inverse_metric`), for two right-hand sides: the
+feasibility step ``Δf`` (the minimum-norm correction of the hard rows in the metric) and, in the optimize phase,
+the optimality step ``Δo`` (the soft goals' step projected on the linearized constraints). :func:`solve_step`
+then tries ``X + β Δf + t Δo`` (β ≤ 1 capped so that no vertex moves more than one mean edge, then halved; in the
+optimize phase ``t`` is halved instead) until a trial is healthy (:mod:`components.planarize.guard`) and makes
+progress: a lower planarity score (or the same worst face and a lower total excess over the tolerance, so that a
+face held by the guard does not stop the others), or in the optimize phase a lower soft objective with planarity
+within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corners, edges, faces and hinges it pushed
+toward their bounds and solves again (later in the iteration: takes a shorter healthy step first); a trial that
+only crosses faces is shortened.
+
+Example
+-------
+A planar grid needs no correction: the feasibility step is zero.
+
+>>> from components.core.mesh import quad_grid
+>>> from components.planarize.guard import evaluate, panel_guard
+>>> from components.planarize.problem import checked_options, setup_problem
+>>> from components.planarize.rows import soft_terms
+>>> V, F = quad_grid(3, 3, 3.0, 3.0)
+>>> prob = setup_problem(V, F, None, checked_options(len(V)))
+>>> guard = panel_guard(prob)
+>>> cur = evaluate(prob, guard, prob.X0, np.zeros((0, 3)))
+>>> step = solve_step(prob, guard, cur, soft_terms(prob, cur.X), np.zeros(guard.n_items, bool), 0.0)
+>>> float(np.abs(step.df).max()), step.accepted is None
+(0.0, True)
+"""
+from __future__ import annotations
+
+import logging
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from components.planarize.guard import State, crossing_checked, evaluate, log_unhealthy, rows_to_guard, watched_rows
+from components.planarize.rows import hard_residual, hard_rows, inverse_metric, soft_terms, times_blocks
+
+log = logging.getLogger(__name__)
+
+__all__ = ["KAPPA", "Factorization", "Step", "solve_step", "predicted_gain", "factor_spd"]
+
+KAPPA = 30.0  # optimize phase: planarity may rise to κ × tolerance while the soft objective is lowered
+_TRUST = 1.0  # no vertex moves more than this (mean edges) in one iteration
+_GUARD_ATTEMPTS = 6  # re-solves per iteration that add guard rows
+_RESOLVE_FIRST = 2  # attempts that solve again at once when a trial is unhealthy (later ones search on first)
+_RELEASES = 3  # re-solves per iteration after releasing guard rows that hold their item down
+_BACKTRACKS = 10  # step halvings per solve
+_MIN_T = 1.0 / 64  # optimize phase: the smallest fraction of the optimality step tried
+
+
+class Factorization(NamedTuple):
+    """One solve's system: hard rows ``J``, ``J G``, the factor of ``J G Jᵀ``, ``G`` blocks, rows before the guard."""
+
+    J: object
+    JG: object
+    lu: object
+    Gb: np.ndarray
+    n_hard: int
+
+
+class Directions(NamedTuple):
+    """The feasibility and optimality steps of one solve and their multipliers."""
+
+    fact: Factorization
+    lam_f: np.ndarray
+    df: np.ndarray  # (n, 3)
+    lam_o: np.ndarray
+    do: np.ndarray  # (n, 3), zero outside the optimize phase
+
+
+class Step(NamedTuple):
+    """What :func:`solve_step` did."""
+
+    accepted: State | None  # the accepted trial, or None
+    singular: bool  # the system could not be factored
+    fact: Factorization | None  # of the last solve
+    guard_sel: np.ndarray  # (c + e + m + i,) bool, guard items with a row in the last solve
+    t: float  # fraction of the optimality step taken
+    beta: float  # fraction of the feasibility step taken
+    df: np.ndarray | None
+    do: np.ndarray | None
+    f_new: float | None  # soft objective of the accepted optimize trial
+    failed: tuple = ()  # the guards the last rejected trial failed
+
+
+def factor_spd(S):
+    """Factor the SPD face-sized system (SuperLU in symmetric mode on the symmetric minimum-degree ordering; the
+    orderings were benchmarked: COLAMD is 2–10× slower on these systems)."""
+    S = S.tocsc()
+    try:
+        return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+    except RuntimeError:  # exactly singular: damp
+        d = S.diagonal()
+        S = S + sp.identity(S.shape[0], format="csc") * (1e-9 * max(float(np.abs(d).max()), 1e-300))
+        return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+
+
+def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize) -> Directions | None:
+    """Solve the system with guard rows at the corners ``sel`` (``None`` when it is singular even damped)."""
+    J, r, n_hard = hard_rows(prob, X, sel, guard.item_tgt[sel])
+    JG = times_blocks(J, Gb)
+    S = (JG @ J.T).tocsc()
+    eps = 1e-10 * max(float(S.diagonal().mean()), 1e-300)  # relative damping (the rows are scale-free)
+    try:
+        lu = factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
+    except RuntimeError:  # singular even when damped (coincident vertices, collapsed faces)
+        return None
+    lam_f = lu.solve(-r)
+    df = (JG.T @ lam_f).reshape(-1, 3)
+    if optimize:
+        lam_o = lu.solve(JG @ gf)
+        do = (JG.T @ lam_o - Ggf).reshape(-1, 3)
+    else:
+        lam_o, do = np.zeros_like(lam_f), np.zeros_like(df)
+    return Directions(Factorization(J, JG, lu, Gb, n_hard), lam_f, df, lam_o, do)
+
+
+def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False) -> Step:
+    """One iteration's step from ``cur`` (soft terms ``soft = (g, H, f)`` at ``cur.X``).
+
+    ``t`` is the fraction of the optimality step to try first (0 outside the optimize phase). ``sticky`` ``(c + e +
+    m,) bool`` holds the guard items whose rows are kept from step to step; it is updated in place (items added
+    after an unhealthy trial, rows found loose released).
+    """
+    X = cur.X
+    g, H, f_cur = soft
+    Gb = inverse_metric(prob, H, cur.tangents)
+    gf = g.ravel()
+    Ggf = np.einsum("nij,nj->ni", Gb, g).ravel()
+    guard_sel = watched_rows(guard, cur.values, sticky)
+    accepted, fact, beta, d, f_new, failed = None, None, 1.0, None, None, ()
+    attempt = releases = 0
+    while attempt < _GUARD_ATTEMPTS:
+        sel = np.nonzero(guard_sel)[0]
+        d = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize)
+        if d is None:
+            return Step(None, True, fact, guard_sel, t, beta, None, None, None, failed)
+        fact = d.fact
+        if not (np.all(np.isfinite(d.df)) and np.all(np.isfinite(d.do))):
+            break
+        if len(sel) and releases < _RELEASES:
+            # the guard rows are inequalities: a row whose multiplier pushes its item down is not binding
+            loose = d.lam_f[fact.n_hard:] + t * d.lam_o[fact.n_hard:] < 0
+            if loose.any():
+                guard_sel[sel[loose]] = False
+                sticky[sel[loose]] = False
+                releases += 1
+                continue
+        attempt += 1
+        accepted, resolve, t, beta, f_new, failed = _line_search(
+            prob, guard, cur, d, t, optimize, f_cur, guard_sel, sticky, attempt)
+        if accepted is not None or not resolve:
+            break
+    return Step(accepted, False, fact, guard_sel, t, beta, d.df, d.do, f_new, failed)
+
+
+def _line_search(prob, guard, cur, d, t, optimize, f_cur, guard_sel, sticky, attempt):
+    """Try ``X + β Δf + t Δo`` with shrinking β (or t in the optimize phase).
+
+    An unhealthy trial marks the items it pushed toward their bounds. In the first ``_RESOLVE_FIRST`` attempts the
+    system is solved again at once with rows for them (a full step that respects the guard keeps Gauss-Newton's
+    fast convergence); later the search goes on, a shorter healthy step is taken and the marked rows are kept for
+    the next iteration (``sticky``), and only when no step is found is the system solved again with them.
+
+    Returns ``(accepted or None, resolve, t, β, f_new, failed)``; ``resolve``: guard rows were added (``guard_sel``
+    and ``sticky`` updated in place) and the system is to be solved again; ``failed``: the guards the last
+    unhealthy trial failed.
+    """
+    X, df, do = cur.X, d.df, d.do
+    move = float(np.linalg.norm(df, axis=1).max())
+    beta = min(1.0, _TRUST / move) if move > 0 else 1.0
+    f_new, failed = None, ()
+    pending = np.zeros_like(guard_sel)
+    last_attempt = attempt >= _GUARD_ATTEMPTS
+    for _ in range(_BACKTRACKS):
+        Xt, tt = prob.project_slide(X + beta * df + t * do)
+        trial = evaluate(prob, guard, Xt, tt, crossings=False)
+        accepted = None
+        if not trial.healthy:
+            log_unhealthy(guard, trial, beta, t)
+            failed = trial.failed
+            pending |= rows_to_guard(guard, trial, guard_sel | pending)
+            if pending.any() and attempt <= _RESOLVE_FIRST and not last_attempt:
+                break
+        elif optimize:
+            f_new = soft_terms(prob, trial.X, value_only=True)
+            log.debug("   optimize trial t %.3g: score %.3g f %.6g -> %.6g", t, trial.score, f_cur, f_new)
+            if trial.score <= KAPPA and f_new < f_cur:
+                accepted = trial
+        elif trial.score < cur.score or (trial.score <= cur.score and trial.excess < cur.excess):
+            accepted = trial
+        if accepted is not None:
+            accepted = crossing_checked(prob, guard, accepted)  # the costly test, on the one trial to take
+            if accepted.healthy:
+                sticky |= pending
+                return accepted, False, t, beta, f_new, failed
+            failed = accepted.failed
+            log_unhealthy(guard, accepted, beta, t)
+        if optimize:
+            t *= 0.5
+            if t < _MIN_T:
+                break
+        else:
+            beta *= 0.5
+    if pending.any() and not last_attempt:
+        guard_sel |= pending
+        sticky |= pending
+        return None, True, t, beta, f_new, failed
+    return None, False, t, beta, f_new, failed
+
+
+def predicted_gain(prob, X, soft, fact: Factorization) -> tuple[float, float]:
+    """Decrease of the soft objective that the next optimize step promises, from the quadratic model at ``X``
+    with the previous iteration's factorization (one more solve, no new factor): ``f − m(Δf + Δo)``, and ``f``."""
+    g, H, f = soft
+    rr = hard_residual(prob, X, fact.J.shape[0], fact.n_hard)
+    lam = fact.lu.solve(fact.JG @ g.ravel() - rr)
+    step = (fact.JG.T @ lam).reshape(-1, 3) - np.einsum("nij,nj->ni", fact.Gb, g)
+    gain = -float(np.einsum("ij,ij->", g, step)) - 0.5 * float(np.einsum("ni,nij,nj->", step, H, step))
+    return gain, f

@@ -1,0 +1,205 @@
+"""Tests of the planarization solver's parts on their own: problem setup, goal rows, one step, the guard, phases."""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from components.core.errors import InputError
+from components.core.mesh import boundary_loops, quad_grid
+from components.planarize.goals import planarity_residual
+from components.planarize.guard import State, evaluate, panel_guard, rows_to_guard, watched_rows
+from components.planarize.phases import Run, final_state, iterate
+from components.planarize.problem import checked_options, setup_problem
+from components.planarize.rows import hard_rows, inverse_metric, soft_terms
+from components.planarize.step import solve_step
+
+
+def _grid(n=4, bump=0.0):
+    V, F = quad_grid(n, n, float(n), float(n))  # unit edges: normalized units are model units shifted
+    V[:, 2] = bump * (V[:, 0] - n / 2) * (V[:, 1] - n / 2)
+    return V, F
+
+
+def _problem(V, F, reference=None, **kw):
+    prob = setup_problem(V, F, reference, checked_options(len(V), **kw))
+    return prob, panel_guard(prob)
+
+
+def _state(prob, guard, X):
+    Xs, tang = prob.project_slide(X)
+    return evaluate(prob, guard, Xs, tang)
+
+
+# ----------------------------------------------------------------------------------------------- problem setup
+
+
+def test_options_use_the_shared_wording():
+    with pytest.raises(InputError, match=r"^anchors: must be between 0 and 24, got 25$"):
+        checked_options(25, anchors=[3, 25])
+    with pytest.raises(InputError, match=r"^anchors: must be a whole number, got 1\.5$"):
+        checked_options(25, anchors=[1.5])
+    with pytest.raises(InputError, match=r"^max_iterations: must be a whole number"):
+        checked_options(25, max_iterations=2.5)
+    with pytest.raises(InputError, match=r"^boundary: must be one of 'fixed', 'slide', 'free', got 'glued'$"):
+        checked_options(25, boundary="glued")
+    with pytest.raises(InputError, match=r"^anchor_points: point 0 has a NaN"):
+        checked_options(25, anchor_points=[[0.0, np.nan, 0.0]])
+    assert checked_options(25, anchors=np.array([4.0, 2.0, 4.0])).anchors.tolist() == [2, 4]
+
+
+def test_sliding_roles_fix_the_corners_and_slide_the_rest():
+    V, F = _grid(4, bump=0.05)
+    prob, _ = _problem(V, F, reference=(V, F), boundary="slide", anchors=[12])
+    loop = boundary_loops(F)[0]
+    corners = [0, 4, 20, 24]
+    assert prob.fixed[corners].all() and prob.fixed[12]
+    assert prob.slide[[v for v in loop if v not in corners]].all()
+    assert not (prob.fixed & prob.slide).any()
+    assert prob.ndof == 3 * 8 + 12  # 9 interior vertices minus the anchor, 12 sliding ones
+
+
+# ----------------------------------------------------------------------------------------------- goal rows
+
+
+def test_soft_gradient_matches_the_objective():
+    # fixed targets and the start's tangent planes: the objective whose gradient soft_terms gives is exactly f
+    # (with a reference or mean targets the closest points and means are held fixed, Gauss-Newton style)
+    V, F = _grid(4, bump=0.1)
+    prob, _ = _problem(V, F, start_weight=0.3, fairness_weight=0.5, edge_length_weight=1.0, target_edge_length=1.1,
+                       area_weight=1.0, target_area=1.2)
+    rng = np.random.default_rng(0)
+    X = prob.X0 + 0.05 * rng.standard_normal(prob.X0.shape)
+    g, H, f = soft_terms(prob, X)
+    assert f == pytest.approx(soft_terms(prob, X, value_only=True))
+    D = rng.standard_normal(X.shape)
+    h = 1e-6
+    slope = (soft_terms(prob, X + h * D, value_only=True) - soft_terms(prob, X - h * D, value_only=True)) / (2 * h)
+    assert slope == pytest.approx(float((g * D).sum()), rel=1e-4)
+    assert np.all(np.linalg.eigvalsh(H) > 0)  # a metric
+
+
+def test_sliding_vertices_move_along_their_tangent_only():
+    V, F = _grid(4, bump=0.05)
+    prob, guard = _problem(V, F, reference=(V, F), boundary="slide")
+    cur = _state(prob, guard, prob.X0)
+    Gb = inverse_metric(prob, soft_terms(prob, cur.X)[1], cur.tangents)
+    moved = np.einsum("nij,nj->ni", Gb, np.random.default_rng(1).standard_normal((prob.n, 3)))
+    along = np.einsum("ij,ij->i", moved[prob.slide_idx], cur.tangents)
+    assert np.allclose(moved[prob.slide_idx], along[:, None] * cur.tangents)
+    assert np.all(moved[prob.fixed] == 0.0)
+
+
+def test_hard_rows_are_the_planarity_residuals_plus_guard_rows():
+    V, F = _grid(3, bump=0.2)
+    prob, guard = _problem(V, F)
+    J, r, n_hard = hard_rows(prob, prob.X0, np.zeros(0, np.int64), np.zeros(0))
+    assert J.shape == (len(F), 3 * len(V)) and n_hard == len(F)
+    # every quad row keeps only its excess over relax × tolerance (0.9e-4): it is driven to that value, not to 0
+    res = planarity_residual(prob.X0, prob.Q4)
+    assert np.abs(res).min() > 1e-3
+    assert np.allclose(r, res - np.sign(res) * 0.9e-4, rtol=0, atol=1e-15)
+    sel = np.array([0, 5])
+    J2, r2, n2 = hard_rows(prob, prob.X0, sel, guard.item_tgt[sel])
+    assert n2 == n_hard and J2.shape[0] == n_hard + 2 and np.array_equal(r2[:n_hard], r)
+    assert np.all(r2[n_hard:] == 0.0)  # right angles are above the bound: the guard rows only hold them
+
+
+# ----------------------------------------------------------------------------------------------- one step
+
+
+def test_step_on_a_planar_grid_is_zero():
+    V, F = _grid(4)
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    step = solve_step(prob, guard, cur, soft_terms(prob, cur.X), np.zeros(guard.n_items, bool), 0.0)
+    assert not step.singular
+    assert np.all(step.df == 0.0)
+    assert step.accepted is None  # nothing to improve: no trial lowers a zero score
+
+
+def test_step_on_a_warped_grid_lowers_the_score_and_stays_healthy():
+    V, F = _grid(4, bump=0.1)
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    assert cur.score > 1.0
+    step = solve_step(prob, guard, cur, soft_terms(prob, cur.X), np.zeros(guard.n_items, bool), 0.0)
+    assert step.accepted is not None and step.accepted.healthy
+    assert step.accepted.score < 0.1 * cur.score  # Gauss-Newton: far below, not just lower
+
+
+# ----------------------------------------------------------------------------------------------- the guard
+
+
+def test_guard_rejects_a_corner_below_the_bound():
+    V, F = _grid(3)
+    prob, guard = _problem(V, F, angle_guard=0.5)
+    assert guard.lo == pytest.approx(math.pi / 4)  # half of the input's 90°
+    X = prob.X0.copy()
+    v = 5  # interior vertex: pull it toward vertex 10 until the corners at 9 and 6 close below 45°
+    X[v] = prob.X0[10] + 0.2 * (prob.X0[v] - prob.X0[10]) + [0.3, 0.0, 0.0]
+    bad = _state(prob, guard, X)
+    assert not bad.healthy
+    low = guard.guarded & (bad.angle < guard.angle_floor)
+    assert low.any()
+    new = rows_to_guard(guard, bad, np.zeros(guard.n_items, bool))
+    assert np.all(new[: len(low)][low])  # every corner below its floor gets a guard row
+    ok = X.copy()
+    ok[v] = prob.X0[v] + [0.05, 0.05, 0.05]  # a small move keeps every corner well above 45°
+    assert _state(prob, guard, ok).healthy
+
+
+def test_guard_rejects_a_fold():
+    V, F = _grid(3)
+    prob, guard = _problem(V, F, angle_guard=0.1)
+    X = prob.X0.copy()
+    X[5] = prob.X0[10] + (prob.X0[10] - prob.X0[5]) * 0.3  # across the diagonal: face 0 turns reflex
+    st = _state(prob, guard, X)
+    assert st.nonconvex > 0 and not st.healthy
+
+
+def test_watched_rows_are_near_the_bound_or_sticky():
+    V, F = _grid(3)
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    c = len(prob.corners.v)
+    sticky = np.zeros(guard.n_items, bool)
+    assert not watched_rows(guard, cur.values, sticky).any()  # right angles, unit edges: far from their bounds
+    values = cur.values.copy()
+    values[3] = guard.angle_floor[3]  # a corner at its bound
+    values[2 * c + 2] = guard.len_min[2]  # an edge at its bound (items: sharpness, turns, then edges)
+    values[7] = guard.item_act[7] + 0.5 * (guard.item_act[7] - guard.item_min[7])  # just outside the margin
+    assert watched_rows(guard, values, sticky).nonzero()[0].tolist() == [3, 2 * c + 2]
+    sticky[[7, 8]] = True  # kept rows: 7 is still near its bound, 8 (a right angle) is not
+    assert watched_rows(guard, values, sticky).nonzero()[0].tolist() == [3, 7, 2 * c + 2]
+
+
+# ----------------------------------------------------------------------------------------------- phases
+
+
+def _fake_state(score, X):
+    return State(X, np.zeros((0, 3)), score, np.zeros(0), np.zeros(0), 0, True, np.zeros(1), np.zeros(0))
+
+
+def test_best_state_is_returned_when_a_later_step_is_worse():
+    X = np.zeros((1, 3))
+    good, worse = _fake_state(2.0, X), _fake_state(5.0, X + 1)
+    run = Run(t0=0.0, cur=worse, best=good, start_score=9.0, sticky=np.zeros(0, bool), stop_reason="stalled")
+    assert final_state(run) is good and not run.converged
+    # a state that met the tolerance earlier wins over a later one that does not
+    met = _fake_state(0.9, X + 2)
+    run = Run(t0=0.0, cur=worse, best=met, start_score=9.0, sticky=np.zeros(0, bool), stop_reason="stalled",
+              feasible_best=(met, 1.0))
+    assert final_state(run) is met and run.converged
+    assert run.stop_reason == "tolerance reached (best state that met it; then stalled)"
+
+
+def test_iterate_records_one_history_entry_per_iteration_and_stops_at_the_cap():
+    V, F = _grid(4, bump=0.1)
+    prob, guard = _problem(V, F, max_iterations=1)
+    run = iterate(prob, guard, time.perf_counter())
+    assert run.it == 1 and run.stop_reason == "iteration cap (1) reached"
+    assert len(run.hist["maxp"]) == 2 and run.hist["maxp"][1] < run.hist["maxp"][0]
+    assert run.best.score < run.start_score
