@@ -115,7 +115,7 @@ def parametrize_ours(V, T):
 
 
 def candidate_ours(V, T):
-    from components.fields.pipeline import candidate_mesh
+    from components.fields.candidate import candidate_mesh
 
     return candidate_mesh((V, T), 2.5 * _mean_edge(V, T))
 

@@ -144,11 +144,12 @@ def _list(args) -> int:
         return 0
     for c in reg:
         ins = ", ".join(f"{p.name}:{p.kind}{'[]' if p.access == 'list' else ''}{'?' if p.optional else ''}"
+                        + (f"={p.default!r}" if p.has_default and not p.optional else "")
                         for p in c.inputs)
         outs = ", ".join(p.name for p in c.outputs)
         print(f"/{c.uri:32s} {c.description}")
         if args.verbose:
-            print(f"    in:  {ins}\n    out: {outs}")
+            print(f"    python: {c.function.__module__}.{c.function.__name__}\n    in:  {ins}\n    out: {outs}")
     return 0
 
 

@@ -264,7 +264,7 @@ def lscm(V: np.ndarray, T: np.ndarray, pinned=None, pinned_uv=None, method: str 
     if not loops:
         raise MeshError("mesh", "the surface is closed (no boundary): cut it open before a conformal map")
     used = _used_vertices(T, n)
-    ncomp, labels = _components(T, n)
+    _, labels = _components(T, n)
     if len(np.unique(labels[used])) > 1:
         raise MeshError("mesh", f"the mesh has {len(np.unique(labels[used]))} connected components; map each one")
     Q = _lscm_matrix(V, T)
@@ -472,7 +472,7 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
     check_choice(weights, "weights", ("auto", "cotan", "mean_value"))
     n = len(V)
     loops = boundary_loops(T)
-    _check_disk(V, T, loops)
+    check_disk(V, T, loops)
     loop = loops[0]
     P, corners = _boundary_positions(V, T, loop, shape)
     used = _used_vertices(T, n)
@@ -514,12 +514,35 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
     return UV, {"weights": kind, "corners": corners, "warnings": warnings}
 
 
-def _check_disk(V, T, loops):
+def check_disk(V, T, loops):
+    """Refuse a triangle mesh that is not one topological disk (one component, one boundary loop, Euler
+    characteristic 1) with a typed error naming ``mesh``.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    T : (t, 3) int64
+    loops : list of (b,) int64
+        Its boundary loops (:func:`components.core.mesh.boundary_loops`).
+
+    Raises
+    ------
+    MeshError
+        Closed, several components, or not a disk.
+
+    Examples
+    --------
+    >>> from components.core.mesh import boundary_loops, quad_grid, triangulate
+    >>> V, Q = quad_grid(2, 2)
+    >>> T = triangulate(Q)[0]
+    >>> check_disk(V, T, boundary_loops(T)) is None
+    True
+    """
     n = len(V)
     if not loops:
         raise MeshError("mesh", "the surface is closed (no boundary): a disk map needs exactly one boundary loop")
     used = _used_vertices(T, n)
-    ncomp, labels = _components(T, n)
+    _, labels = _components(T, n)
     comps = len(np.unique(labels[used]))
     if comps > 1:
         raise MeshError("mesh", f"the mesh has {comps} connected components; map each one")

@@ -25,7 +25,7 @@ from components.core.errors import InputError
 from components.core.measures import quad_planarity
 from components.core.mesh import edge_topology, face_sizes, triangulate
 from components.core.proximity import TriangleIndex
-from components.core.types import Mesh
+from components.core.types import Mesh, Texts
 from components.fields.extract import (
     collapse_short_edges,
     quad_mesh_from_parametrization,
@@ -40,6 +40,7 @@ from components.fields.parametrize import (
     direction_field,
     seamless_parametrization,
 )
+from components.fields.repair import candidate_health, repaired_candidate
 
 __all__ = ["CANDIDATE_BOUNDARY_MODES", "Candidate", "ExtractResult", "Quality", "candidate_mesh",
            "candidate_quality", "extract_quads"]
@@ -51,7 +52,10 @@ class Candidate(NamedTuple):
     ``V, F`` the candidate, ``tri, bary`` where each vertex sits on the input triangles, ``quads``,
     ``other_faces``, ``quad_ratio``, ``singularities`` (interior vertices of valence ≠ 4),
     ``field_singularities`` (singular vertices of the field), ``mean_angle_error`` (degrees), ``param`` the
-    :class:`~components.fields.parametrize.Parametrization`, ``T`` the triangulated input, ``warnings``, ``timings``.
+    :class:`~components.fields.parametrize.Parametrization`, ``T`` the triangulated input, ``warnings``, ``timings``;
+    with ``repair``: ``health`` (:class:`~components.metrics.health.PanelHealth` of the candidate against the
+    input surface, planarity left out) and ``repairs`` (what :func:`~components.fields.repair.repaired_candidate`
+    did), else ``None``.
     """
 
     V: np.ndarray
@@ -68,6 +72,8 @@ class Candidate(NamedTuple):
     T: np.ndarray
     warnings: list
     timings: dict
+    health: object = None
+    repairs: dict | None = None
 
 
 def _irregular_vertices(V: np.ndarray, F: np.ndarray) -> int:
@@ -139,7 +145,8 @@ def _score(ex, target: float) -> tuple:
 
 def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
                    boundary: str = "auto", constraint_faces=None, constraint_directions=None,
-                   merge: float = 0.05, name: str = "mesh", release_separation: float | None = None) -> Candidate:
+                   merge: float = 0.05, name: str = "mesh", release_separation: float | None = None,
+                   repair: bool = False) -> Candidate:
     """Candidate quad mesh of a surface: field → seamless parametrization → integer iso-line extraction.
 
     Parameters
@@ -176,6 +183,12 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     release_separation : float, optional
         Conjugate field: faces whose conjugate pair is narrower than this (radians) keep the smooth pair
         (:func:`components.fields.field.conjugate_frame_field`; its default 45° when omitted, 0 never).
+    repair : bool
+        Repair the panels that are not healthy (:func:`components.fields.repair.repaired_candidate`: valence-2
+        vertices dissolved, short edges collapsed, vertices of pinched, folded or non-convex panels smoothed on
+        the surface, such panels split) and measure the candidate's health against the surface. With
+        ``"auto"`` the tried candidates are repaired best score first until one is healthy (else the one with
+        the fewest unhealthy panels is kept). Off by default (the subdivision strategy's coarse nets).
 
     Returns
     -------
@@ -205,6 +218,8 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     T, _ = triangulate(F)
     cons = _check_constraints(constraint_faces, constraint_directions, len(T))
     check_target_fits(V, T, target)
+    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
+    V = V - center  # about the bounding-box centre: far from the origin the products would lose digits
     t = time.perf_counter()
     U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons,
                            release_separation=release_separation)
@@ -213,11 +228,15 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     index = TriangleIndex(V, T)  # one closest-point index for every extraction's relaxations
     if boundary == "auto":
         tried = [_extract(V, T, U, W, target, mode, d, merge, index) for mode in ("snap", "mixed") for d in _DENSITIES]
-        ex, par = max(tried, key=lambda r: _score(r[0], target))
         timings["parametrize"] = sum(p.timings["total"] for _, p in tried)
     else:
-        ex, par = _extract(V, T, U, W, target, boundary, 1.0, merge, index)
-        timings["parametrize"] = par.timings["total"]
+        tried = [_extract(V, T, U, W, target, boundary, 1.0, merge, index)]
+        timings["parametrize"] = tried[0][1].timings["total"]
+    tried.sort(key=lambda r: _score(r[0], target), reverse=True)  # stable: the first of equals stays first
+    ex, par = tried[0]
+    health, repairs = None, None
+    if repair:
+        ex, par, health, repairs = _healthiest(V, T, tried, target, index)
     timings["extract"] = time.perf_counter() - t - timings["parametrize"]
     warnings = list(par.warnings)
     s = face_sizes(ex.F) if len(ex.F) else np.zeros(0, dtype=np.int64)
@@ -229,8 +248,29 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     mean_err = float(np.degrees(np.sum(par.angle_error * area) / area.sum()))
     ratio = quads / len(s) if len(s) else 0.0
     irregular = _irregular_vertices(ex.V, ex.F) if len(ex.F) else 0
-    return Candidate(ex.V, ex.F, ex.tri, ex.bary, quads, other, ratio, irregular, len(par.singularities), mean_err,
-                     par, T, warnings, timings)
+    return Candidate(ex.V + center, ex.F, ex.tri, ex.bary, quads, other, ratio, irregular, len(par.singularities),
+                     mean_err, par, T, warnings, timings, health, repairs)
+
+
+def _healthiest(V, T, tried: list, target: float, index: TriangleIndex):
+    """Repair the tried extractions (best score first) until one is healthy against the surface; else the one with
+    the fewest unhealthy faces (the first of equals). Returns ``ex, par, health, repairs``."""
+    best = None
+    for ex, par in tried:
+        if len(ex.F) == 0:
+            continue
+        r = repaired_candidate(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
+        health = candidate_health(r.V, r.F, (V, T))
+        out = (ex._replace(V=r.V, F=r.F, tri=r.tri, bary=r.bary, grid=r.grid), par, health, r.actions)
+        if health.healthy:
+            return out
+        bad = int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
+        if best is None or bad < best[0]:
+            best = (bad, out)
+    if best is None:
+        ex, par = tried[0]
+        return ex, par, None, {}
+    return best[1]
 
 
 class Quality(NamedTuple):
@@ -287,6 +327,8 @@ class ExtractResult(NamedTuple):
     singularities: int
     quad_ratio: float
     mean_angle_error: float
+    healthy: bool
+    violations: Texts
     warnings: list[str]
 
 
@@ -327,6 +369,12 @@ def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", al
         Share of quads among the faces.
     mean_angle_error : float
         Area-weighted mean angle (degrees) between the parametrization's iso-lines and the field.
+    healthy : bool
+        Whether the panels are fabricable before planarization: corners between 20° and 160°, edges over 0.2 × the
+        median edge, panels over 0.1 × the median panel area, convex, not folded, flipped or crossing, at least 85%
+        of the surface covered (planarity is the planarization's).
+    violations : Texts
+        One line per failed check, with the count and the worst value against its bound; empty when healthy.
 
     Raises
     ------
@@ -338,16 +386,24 @@ def extract_quads(mesh: Mesh, target_length: float, field: str = "conjugate", al
     Notes
     -----
     Parametrization after Bommes, Zimmer & Kobbelt 2009, extraction after Ebke et al. 2013 (see
-    :mod:`components.fields.extract`).
+    :mod:`components.fields.extract`); the panels that are not healthy are repaired
+    (:func:`components.fields.repair.repaired_candidate`).
 
     Example
     -------
     >>> from components.core.mesh import quad_grid
     >>> V, F = quad_grid(8, 8, 8.0, 8.0, height=lambda x, y: 0.02 * (x - 4) ** 2 - 0.01 * (y - 4) ** 2)
     >>> res = extract_quads((V, F), target_length=2.0)
-    >>> res.quads, res.quad_ratio
-    (16, 1.0)
+    >>> res.quads, res.quad_ratio, res.healthy
+    (16, 1.0, True)
     """
-    res = candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary)
+    res = candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary, repair=True)
+    warnings = list(res.warnings)
+    healthy = bool(res.health is not None and res.health.healthy)
+    violations = list(res.health.violations) if res.health is not None else ["no panel fits on the surface"]
+    if not healthy:
+        bad = int(np.count_nonzero(res.health.face_defects)) if res.health is not None else 0
+        warnings.append(f"the candidate is not healthy ({bad} of {len(res.F)} panels with defects): "
+                        + "; ".join(violations))
     return ExtractResult((res.V, res.F), res.quads, res.other_faces, res.singularities, res.quad_ratio,
-                         res.mean_angle_error, list(res.warnings))
+                         res.mean_angle_error, healthy, violations, warnings)

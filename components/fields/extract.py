@@ -41,7 +41,8 @@ from components.core.proximity import TriangleIndex
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Extraction", "collapse_short_edges", "iso_segments", "quad_mesh_from_parametrization",
+__all__ = ["BoundaryCurve", "Extraction", "boundary_curve", "boundary_turns", "closest_on_boundary",
+           "collapse_short_edges", "iso_segments", "put_back", "quad_mesh_from_parametrization", "relabel",
            "relax_edge_lengths", "snap_boundary", "split_large_faces"]
 
 _TOL = 1e-9  # parameter tolerance (in grid units) for "on an iso-line"
@@ -291,6 +292,7 @@ def _faces_from_graph(X, N, a, b, da, db):
     area = np.zeros(len(cycles))
     for i, cyc in enumerate(cycles):
         P = X[cyc]
+        P = P - P[0]  # about a corner: far from the origin the products would cancel
         Q = np.roll(P, -1, axis=0)
         nrm = N[cyc].mean(axis=0)
         area[i] = 0.5 * float(np.cross(P, Q).sum(axis=0) @ nrm)
@@ -384,7 +386,6 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     timings["merge"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     ca, cb, da, db, first_o = _contract_chains(a, b, kept, Xn)
-    # duplicate chains between the same pair with the same direction (collinear pieces from both sides)
     kn = np.nonzero(kept)[0]
     remap = np.full(nn, -1, dtype=np.int64)
     remap[kn] = np.arange(len(kn))
@@ -395,11 +396,14 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     FN = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
     FN /= np.linalg.norm(FN, axis=1, keepdims=True)
     Nn = FN[node_tri[kn]]
-    A_, B_ = remap[ca], remap[cb]
     # half-edges that run along the mesh boundary against its orientation face the outside (also around holes)
     bdir = lab[pa[pts.bnd[pa] & pts.bnd[pb]]] * nn + lab[pb[pts.bnd[pa] & pts.bnd[pb]]]
     fwd = np.isin(ca * nn + first_o, bdir)
     bwd = np.isin(first_o * nn + ca, bdir)
+    # overlapping chains leaving a node the same way (an iso-line along the boundary): one stays
+    keep = _distinct_chains(ca, cb, da, db, fwd | bwd, Xn)
+    ca, cb, da, db, fwd, bwd = ca[keep], cb[keep], da[keep], db[keep], fwd[keep], bwd[keep]
+    A_, B_ = remap[ca], remap[cb]
     outside = np.concatenate([bwd & ~fwd, fwd & ~bwd])
     cycles, area, hcycles = _faces_from_graph(Vc, Nn, A_, B_, da, db)
     timings["cells"] = time.perf_counter() - t2
@@ -412,6 +416,59 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     timings["cleanup"] = time.perf_counter() - t3
     timings["total"] = time.perf_counter() - t0
     return Extraction(Vout, Fout, tri_out, bary_out, grid_out, dropped, timings)
+
+
+def _distinct_chains(ca, cb, da, db, on_boundary, X, cos_same: float = 1.0 - 1e-9) -> np.ndarray:
+    """``(c,) bool``: the chains to keep when two leave a node in the same direction (within ~4e-5 rad).
+
+    Such overlaps appear where an integer iso-line runs along the boundary: twins joining the same two nodes (one
+    stays, a boundary chain first), or a chain ``n → m`` running past a node ``k`` that a shorter chain ``n → k``
+    and a chain ``k → m`` in the same direction join (the long one goes). Left in, the order of their equal angles
+    at ``n`` (the last bits of the input) decided which cells the half-edge walk found: another candidate for the
+    same surface in other units. ``X`` are the node positions.
+    """
+    keep = np.ones(len(ca), dtype=bool)
+    if len(ca) < 2:
+        return keep
+    tail = np.concatenate([ca, cb])
+    head = np.concatenate([cb, ca])
+    d = np.concatenate([da, db])
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    chain = np.concatenate([np.arange(len(ca)), np.arange(len(ca))])
+    bnd = np.concatenate([on_boundary, on_boundary])
+    reach = np.linalg.norm(X[head] - X[tail], axis=1)
+    order = np.lexsort((~bnd, reach, tail))
+    ts = tail[order]
+    # nodes where two half-edges leave the same way (vectorized: offsets within each node's run)
+    same_way = np.zeros(len(order), dtype=bool)
+    for k in range(1, int(np.bincount(ts).max())):
+        i = np.nonzero(ts[k:] == ts[:-k])[0]
+        hit = i[np.einsum("ij,ij->i", d[order[i]], d[order[i + k]]) > cos_same]
+        same_way[hit] = True
+    if not same_way.any():
+        return keep
+    starts = np.nonzero(np.r_[True, ts[1:] != ts[:-1]])[0]
+    busy = set(ts[same_way].tolist())
+    out_of: dict = {}
+    for run in np.split(order, starts[1:]):
+        if len(run) > 1:
+            out_of[int(tail[run[0]])] = run.tolist()
+    for n, hs in out_of.items():
+        if n not in busy:
+            continue
+        for i, h in enumerate(hs):
+            if not keep[chain[h]]:
+                continue
+            for g in hs[:i]:  # shorter (or equal) ones first
+                if not keep[chain[g]] or d[g] @ d[h] <= cos_same:
+                    continue
+                if head[g] == head[h]:
+                    keep[chain[h]] = False  # a twin
+                elif any(head[f] == head[h] and d[f] @ d[h] > cos_same for f in out_of.get(int(head[g]), [])):
+                    keep[chain[h]] = False  # runs past head[g], which continues the same way to head[h]
+                if not keep[chain[h]]:
+                    break
+    return keep
 
 
 def _contract_chains(a: np.ndarray, b: np.ndarray, kept: np.ndarray, Xn: np.ndarray):
@@ -505,7 +562,9 @@ def _split_pinched(c: list) -> list:
 # boundary snapping (free boundary → whole quads along the boundary)
 
 
-class _BoundaryCurve(NamedTuple):
+class BoundaryCurve(NamedTuple):
+    """The input surface's boundary edges, for closest points on the boundary (:func:`closest_on_boundary`)."""
+
     A: np.ndarray  # (b, 3) start of each input boundary edge
     B: np.ndarray  # (b, 3) end
     tri: np.ndarray  # (b,) its triangle
@@ -513,14 +572,15 @@ class _BoundaryCurve(NamedTuple):
     cb: np.ndarray  # (b,) corner of the end
 
 
-def _boundary_curve(V: np.ndarray, T: np.ndarray) -> _BoundaryCurve:
+def boundary_curve(V: np.ndarray, T: np.ndarray) -> BoundaryCurve:
+    """The boundary edges of the triangle mesh ``(V, T)``, each with its triangle and the corners of its ends."""
     topo = edge_topology(T)
     he = np.nonzero(topo.count[topo.HE] == 1)[0]
     f, c = he // 3, he % 3
-    return _BoundaryCurve(V[T[f, c]], V[T[f, (c + 1) % 3]], f, c, (c + 1) % 3)
+    return BoundaryCurve(V[T[f, c]], V[T[f, (c + 1) % 3]], f, c, (c + 1) % 3)
 
 
-def _closest_on_boundary(P: np.ndarray, bc: _BoundaryCurve, chunk: int = 2048):
+def closest_on_boundary(P: np.ndarray, bc: BoundaryCurve, chunk: int = 2048):
     """Closest points of ``P`` on the input boundary: points, triangles, barycentric coordinates."""
     D = bc.B - bc.A
     dd = np.maximum(np.einsum("ij,ij->i", D, D), 1e-300)
@@ -596,7 +656,7 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
     h = float(target_length)
     if len(Fc) == 0:
         return Vc, Fc, tri, bary, grid
-    bc = _boundary_curve(V, T)
+    bc = boundary_curve(V, T)
     topo = edge_topology(Fc)
     E = topo.E
     nv = len(Vc)
@@ -619,7 +679,7 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
         S = S[first]
         lab[S[:, 1]] = S[:, 0]
         movers = np.unique(S[:, 0])
-        X, ftri, fbary = _closest_on_boundary(Vc[movers], bc)
+        X, ftri, fbary = closest_on_boundary(Vc[movers], bc)
         Vc = Vc.copy()
         tri = tri.copy()
         bary = bary.copy()
@@ -640,7 +700,7 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
         dl, drep = _merge_close(Vc, 1e-3 * h)
         if len(drep) < nv:
             lab = drep[dl[lab]]
-        Vc, Fc, tri, bary, grid = _relabel(Vc, Fc, tri, bary, grid, lab)
+        Vc, Fc, tri, bary, grid = relabel(Vc, Fc, tri, bary, grid, lab)
     if len(Fc):
         Vc, Fc, tri, bary, grid = _close_boundary_corners(Vc, Fc, tri, bary, grid, bc)
     if merge_triangles and len(Fc):
@@ -650,8 +710,9 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
     return Vc, Fc, tri, bary, grid
 
 
-def _relabel(Vc, Fc, tri, bary, grid, lab):
-    """Apply a vertex relabelling to the faces, drop collapsed faces and unused vertices."""
+def relabel(Vc, Fc, tri, bary, grid, lab):
+    """Apply a vertex relabelling ``lab (p,)`` to the candidate's faces, drop collapsed faces and unused vertices
+    (pinched polygons are split into their loops): ``V, F, tri, bary, grid``."""
     faces = []
     for row in Fc:
         c = [int(lab[v]) for v in _face_list(row)]
@@ -713,11 +774,11 @@ def _close_boundary_corners(Vc, Fc, tri, bary, grid, bc):
         who.append(p1)
     if not who:
         return Vc, Fc, tri, bary, grid
-    X, t_, b_ = _closest_on_boundary(np.asarray(targets), bc)
+    X, t_, b_ = closest_on_boundary(np.asarray(targets), bc)
     Vc, tri, bary = Vc.copy(), tri.copy(), bary.copy()
     who = np.asarray(who)
     Vc[who], tri[who], bary[who] = X, t_, b_
-    return _relabel(Vc, Fc, tri, bary, grid, lab)
+    return relabel(Vc, Fc, tri, bary, grid, lab)
 
 
 def _face_list(row: np.ndarray) -> list:
@@ -779,21 +840,21 @@ def _relax_band(Vc, Fc, tri, bary, bc, sweeps, index):
     ir = np.nonzero(ring)[0]
     for _ in range(sweeps):
         avg = (A @ Vc) / deg[:, None]
-        _put_back(Vc + 0.5 * (avg - Vc), ib, ir, bc, index, Vc, tri, bary)
+        put_back(Vc + 0.5 * (avg - Vc), ib, ir, bc, index, Vc, tri, bary)
     return Vc, tri, bary
 
 
-def _put_back(Y, ib, ii, bc, index, X, tri, bary):
+def put_back(Y, ib, ii, bc, index, X, tri, bary):
     """Write the moved points ``Y`` back onto the surface into ``X, tri, bary`` (in place): boundary vertices
     ``ib`` at their closest boundary points, interior vertices ``ii`` at their closest surface points."""
     if len(ib):
-        X[ib], tri[ib], bary[ib] = _closest_on_boundary(Y[ib], bc)
+        X[ib], tri[ib], bary[ib] = closest_on_boundary(Y[ib], bc)
     if len(ii):
         cp = index.query(Y[ii])
         X[ii], tri[ii], bary[ii] = cp.points, cp.faces, cp.barycentric
 
 
-def _boundary_turns(Vc: np.ndarray, Fc: np.ndarray):
+def boundary_turns(Vc: np.ndarray, Fc: np.ndarray):
     """Boundary vertices and whether the outline turns sharply (> 30°) or ends a face corner (valence 2) there."""
     topo = edge_topology(Fc)
     E = topo.E
@@ -916,7 +977,7 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
     for _ in range(3):
         if len(Fc) == 0:
             break
-        topo, onb, fixed = _boundary_turns(Vc, Fc)
+        topo, onb, fixed = boundary_turns(Vc, Fc)
         E = topo.E
         L = np.linalg.norm(Vc[E[:, 1]] - Vc[E[:, 0]], axis=1)
         nv = len(Vc)
@@ -976,7 +1037,7 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
             done += 1
         if not done:
             break
-        Vc, Fc, tri, bary, grid = _relabel(Vn, Fc, tri, bary, grid, lab)
+        Vc, Fc, tri, bary, grid = relabel(Vn, Fc, tri, bary, grid, lab)
     for _ in range(3):  # a dropped sliver can leave its neighbour on the boundary
         nf = len(Fc)
         Vc, Fc, tri, bary, grid = _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h)
@@ -1006,8 +1067,9 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
     bad[C.face[_degenerate(corner_angles(Vc, Fc))]] = True
     allb = np.ones(len(Fc), dtype=bool)
     np.logical_and.at(allb, C.face, onb[C.v])
-    bad |= np.linalg.norm(face_normals(Vc, Fc, unit=False), axis=1) < small * h * h
-    drop = np.nonzero((bad | nonconvex_faces(Vc, Fc)) & allb)[0]
+    Xc = Vc - Vc.mean(axis=0)  # Newell products about the centre: far from the origin they would cancel
+    bad |= np.linalg.norm(face_normals(Xc, Fc, unit=False), axis=1) < small * h * h
+    drop = np.nonzero((bad | nonconvex_faces(Xc, Fc)) & allb)[0]
     if not len(drop):
         return Vc, Fc, tri, bary, grid
     keep = np.ones(len(Fc), dtype=bool)
@@ -1019,7 +1081,7 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
             keep[f] = True
     if keep.all():
         return Vc, Fc, tri, bary, grid
-    return _relabel(Vc, Fc[keep], tri, bary, grid, np.arange(len(Vc)))
+    return relabel(Vc, Fc[keep], tri, bary, grid, np.arange(len(Vc)))
 
 
 def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray,
@@ -1072,8 +1134,8 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
     if len(Fc) == 0 or iterations <= 0:
         return Vc, tri, bary
     index = TriangleIndex(V, T) if index is None else index
-    bc = _boundary_curve(V, T)
-    topo, onb, fixed = _boundary_turns(Vc, Fc)
+    bc = boundary_curve(V, T)
+    topo, onb, fixed = boundary_turns(Vc, Fc)
     E = topo.E
     ne, nv = len(E), len(Vc)
     rows = np.r_[np.arange(ne), np.arange(ne)]
@@ -1086,8 +1148,9 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
 
     def bad_faces(X, tri_):
         """Faces turned against the surface, non-convex or with a degenerate corner."""
-        bad = np.einsum("ij,ij->i", face_normals(X, Fc), FN[tri_[first]]) <= 0
-        bad |= nonconvex_faces(X, Fc)
+        Xc = X - X.mean(axis=0)  # Newell products about the centre: far from the origin they would cancel
+        bad = np.einsum("ij,ij->i", face_normals(Xc, Fc), FN[tri_[first]]) <= 0
+        bad |= nonconvex_faces(Xc, Fc)
         bad[C.face[_degenerate(corner_angles(X, Fc))]] = True
         return bad
 
@@ -1105,7 +1168,7 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
         rhs = D.T @ goal + w[:, None] * X
         Y = np.column_stack([solve(rhs[:, k]) for k in range(3)])
         tri2, bary2 = tri.copy(), bary.copy()
-        _put_back(Y, ib, ii, bc, index, Y, tri2, bary2)
+        put_back(Y, ib, ii, bc, index, Y, tri2, bary2)
         for _ in range(3):
             stay = fixed | held
             Y[stay], tri2[stay], bary2[stay] = X[stay], tri[stay], bary[stay]
@@ -1159,7 +1222,7 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
     stretches the boundary row past the ±30% edge-length band (measured without the cap: inspired_mesh 90.1% →
     89.3% of edges in the band; ``stretch = 2`` keeps the edge share wherever it was ≥ 90%).
     """
-    topo, onb, fixed = _boundary_turns(Vc, Fc)
+    topo, onb, fixed = boundary_turns(Vc, Fc)
     faces = [_face_list(r) for r in Fc]
     edge_faces: dict = {}
     for fi, c in enumerate(faces):
@@ -1176,13 +1239,13 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
         return Vc, Fc, tri, bary, grid
     Vc, tri, bary, grid = Vc.copy(), tri.copy(), bary.copy(), grid.copy()
     if keep:
-        X, t_, b_ = _closest_on_boundary(np.asarray(goal), bc)
+        X, t_, b_ = closest_on_boundary(np.asarray(goal), bc)
         keep = np.asarray(keep)
         Vc[keep], tri[keep], bary[keep] = X, t_, b_
     moved = np.nonzero(lab != np.arange(nv))[0]
     grid[lab[moved]] |= grid[moved]
     F = pad_faces([c for fi, c in enumerate(faces) if not dead[fi]])
-    return _relabel(Vc, F, tri, bary, grid, lab)
+    return relabel(Vc, F, tri, bary, grid, lab)
 
 
 def _boundary_slots(c: list, edge_faces: dict) -> list:
@@ -1254,7 +1317,7 @@ def _split_boundary_hexagons(Vc, faces: list, edge_faces: dict, dead: np.ndarray
 
 
 def _collapse_boundary_triangles(Vc, faces: list, edge_faces: dict, dead: np.ndarray, topo, onb: np.ndarray,
-                                 fixed: np.ndarray, bc: _BoundaryCurve, h: float, stretch: float):
+                                 fixed: np.ndarray, bc: BoundaryCurve, h: float, stretch: float):
     """The boundary edge ``p1 p2`` of each remaining boundary triangle ``(g, p1, p2)`` collapses (see
     :func:`_merge_boundary_triangles`): ``lab`` the vertex relabelling, ``keep`` the merged vertices that move and
     ``goal`` the points whose closest boundary points they move to."""
@@ -1280,7 +1343,7 @@ def _collapse_boundary_triangles(Vc, faces: list, edge_faces: dict, dead: np.nda
             continue
         if fixed[p2]:
             p1, p2 = p2, p1
-        X = Vc[p1] if fixed[p1] else _closest_on_boundary((0.5 * (Vc[p1] + Vc[p2]))[None], bc)[0][0]
+        X = Vc[p1] if fixed[p1] else closest_on_boundary((0.5 * (Vc[p1] + Vc[p2]))[None], bc)[0][0]
         around = [v for v in (nbrs[p1] | nbrs[p2]) if v != p1 and v != p2]
         if np.linalg.norm(Vc[around] - X, axis=1).max() > stretch * h:
             continue

@@ -134,7 +134,8 @@ def _smoothed_principal_field(V: np.ndarray, T: np.ndarray, alignment: float, co
     e2 = np.cross(n, e1)
     PD1, PD2, k1, k2 = vertex_principal_curvature(V, T, radius=2)
     FD1, FD2, FK1, FK2 = face_principal_curvature(V, T, PD1, PD2, k1, k2)
-    aniso = np.abs(FK1 - FK2) / (np.abs(FK1) + np.abs(FK2) + 1e-12)
+    size = np.abs(FK1) + np.abs(FK2)
+    aniso = np.abs(FK1 - FK2) / (size + 1e-12 * max(float(size.mean()), 1e-300))  # relative: units do not matter
     theta0 = np.arctan2(np.einsum("ij,ij->i", FD1, e2), np.einsum("ij,ij->i", FD1, e1))
     z0 = np.exp(4j * theta0)
     topo = edge_topology(T)

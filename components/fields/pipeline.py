@@ -25,10 +25,11 @@ import numpy as np
 
 from components.core.checks import check_number
 from components.core.errors import InputError
-from components.core.types import Integers, Mesh, Vectors
+from components.core.types import Integers, Mesh, Texts, Vectors
 # Aliases for callers outside the package: candidate_mesh (benchmarks/fields.py imports it from here, where it lived
 # before candidate.py) and extract_quads (ghserver.endpoints, whose import line names this module, not candidate).
 from components.fields.candidate import candidate_mesh, candidate_quality, extract_quads  # noqa: F401
+from components.metrics.health import face_health
 from components.planarize.planarizer import planarize_mesh
 
 log = logging.getLogger(__name__)
@@ -53,6 +54,9 @@ class PQResult(NamedTuple):
     time_parametrize: float
     time_extract: float
     time_planarize: float
+    healthy: bool
+    coverage: float
+    violations: Texts
     warnings: list[str]
 
 
@@ -131,6 +135,16 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
         Seconds spent on the quad extraction.
     time_planarize : float
         Seconds spent on the planarization.
+    healthy : bool
+        Whether the planarized panels (the candidate's when ``planarize`` is off) are fabricable: every corner
+        between 20° and 160°, every edge over 0.2 × the median edge, every panel over 0.1 × the median panel area,
+        convex, not folded, flipped or crossing, at least 85% of the input surface covered, and (after
+        planarization) every panel planar to ``tolerance``.
+    coverage : float
+        Share of the input surface's area the panels cover, 0..1.
+    violations : Texts
+        One line per failed check (:func:`components.metrics.health.face_health`), with the count and the worst
+        value against its bound; empty when healthy.
 
     Raises
     ------
@@ -142,7 +156,10 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     Notes
     -----
     Conjugate direction fields for PQ meshes: Liu et al. 2011; parametrization: Bommes, Zimmer & Kobbelt 2009;
-    planarization: Tang et al. 2014 (see :mod:`components.planarize.planarizer`).
+    planarization: Tang et al. 2014 (see :mod:`components.planarize.planarizer`). Before the planarization the
+    candidate's unhealthy panels are repaired (:func:`components.fields.repair.repaired_candidate`). Success is
+    claimed only for a result that reaches the tolerance and is healthy; anything else comes with a warning that
+    names the counts.
 
     Example
     -------
@@ -151,31 +168,50 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     >>> res = pq_from_conjugate_field((V, F), target_length=2.0)
     >>> res.candidate_max_planarity > res.planarized_max_planarity, res.planarized_max_planarity <= 1e-4
     (True, True)
+    >>> res.healthy, res.coverage > 0.85, res.violations
+    (True, True, [])
     """
     tol = check_number(tolerance, "tolerance", 0)
     budget = check_number(time_budget, "time_budget", 0)
     closeness_weight = check_number(closeness_weight, "closeness_weight", 0)
     cand = candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary,
-                          constraint_faces=constraint_faces, constraint_directions=constraint_directions)
+                          constraint_faces=constraint_faces, constraint_directions=constraint_directions, repair=True)
     target = float(target_length)
     warnings = list(cand.warnings)
     V, F = cand.V, cand.F
     if len(F) == 0:
         raise InputError("target_length", f"{target:g} is too large: no panel fits on the surface")
     q = candidate_quality(V, F, target)
+    surface = (np.asarray(mesh[0], dtype=np.float64), cand.T)
     t = time.perf_counter()
     planarized = None
     if planarize:
-        planarized = _planarized(V, F, (np.asarray(mesh[0], dtype=np.float64), cand.T), tol, budget,
-                                 closeness_weight, warnings)
+        planarized = _planarized(V, F, surface, tol, budget, closeness_weight, warnings)
     # not asked for, or the solver failed: the candidate itself
     (Vp, Fp), pmax, pmean, cmean, cmax = planarized or ((V, F), q.max_planarity, q.mean_planarity, 0.0, 0.0)
     tp = time.perf_counter() - t
     if q.quad_ratio < 0.95:
         warnings.append(f"only {100 * q.quad_ratio:.1f}% of the candidate's faces are quads")
+    health = face_health(Vp, Fp, surface, tolerance=tol if planarize else 1e300, name="planarized")
+    warnings += _health_warnings(health, cand, planarized is not None)
     return PQResult((V, F), q.max_planarity, q.mean_planarity, (Vp, Fp), pmax, pmean, cmean, cmax, q.quad_ratio,
                     q.edge_length_within, cand.singularities, cand.mean_angle_error, cand.timings["field"],
-                    cand.timings["parametrize"], cand.timings["extract"], tp, warnings)
+                    cand.timings["parametrize"], cand.timings["extract"], tp, bool(health.healthy),
+                    float(health.coverage), list(health.violations), warnings)
+
+
+def _health_warnings(health, cand, planarized: bool) -> list:
+    """The warnings that say why a result is not fabricable (the candidate's health first when it was not)."""
+    out = []
+    if cand.health is not None and not cand.health.healthy:
+        out.append(f"the candidate has panels that could not be repaired ({len(cand.health.violations)} "
+                   f"violation(s)): " + "; ".join(cand.health.violations))
+    if not health.healthy:
+        what = "planarized panels" if planarized else "candidate's panels (not planarized)"
+        bad = int(np.count_nonzero(health.face_defects))
+        out.append(f"the {what} are not healthy: {bad} of {len(health.face_defects)} panels with defects, "
+                   f"coverage {health.coverage:.0%}: " + "; ".join(health.violations))
+    return out
 
 
 def _planarized(V: np.ndarray, F: np.ndarray, reference: tuple, tol: float, budget: float, closeness_weight: float,
@@ -190,7 +226,7 @@ def _planarized(V: np.ndarray, F: np.ndarray, reference: tuple, tol: float, budg
         warnings.append(f"planarization failed ({exc}); the candidate is returned unplanarized")
         return None
     warnings += list(res.warnings)
-    if not res.converged:
+    if res.max_planarity > tol:  # health (the planarizer's converged includes it) is worded by the caller
         warnings.append(f"planarization stopped before reaching {tol:g}: {res.stop_reason}")
     return (res.mesh, float(res.max_planarity), float(res.mean_planarity), float(res.mean_closeness),
             float(res.max_closeness))

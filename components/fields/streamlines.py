@@ -734,7 +734,7 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
             continue
         arr = np.asarray(line)
         seg = np.linalg.norm(np.diff(arr, axis=0), axis=1)
-        if seg.sum() < max(sd.min_length, 1e-12):
+        if seg.sum() < max(sd.min_length, 1e-12 * sep):  # relative: the same at any scale
             continue
         lines.append(arr)
         reasons.append(list(why))
@@ -773,7 +773,7 @@ def _offset_seeds(sd: _Seeding, arr: np.ndarray, seg: np.ndarray, k: int) -> lis
     tr, sep = sd.tr, sd.sep
     out = []
     cum = np.concatenate([[0.0], np.cumsum(seg)])
-    picks = np.searchsorted(cum, np.arange(0.0, cum[-1] + 1e-12, 0.5 * sep))
+    picks = np.searchsorted(cum, np.arange(0.0, cum[-1] + 1e-12 * sep, 0.5 * sep))
     picks = np.unique(np.minimum(picks, len(arr) - 1))
     locs = _locate_on_line(tr, arr[picks])
     for (lf, lz), i in zip(locs, picks.tolist()):

@@ -41,12 +41,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from components.core.checks import check_choice, check_number
-from components.core.conformal import disk_map, lscm
+from components.core.conformal import check_disk, disk_map, lscm
 from components.core.errors import MeshError
 from components.core.mesh import boundary_loops, edge_topology, face_sizes, pad_faces
 from components.core.proximity import TriangleIndex
@@ -80,30 +78,6 @@ def _signed_areas(UV, T):
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
-def _check_disk(V, T, loops):
-    """Refuse a mesh that is not one topological disk (one component, one boundary loop, Euler characteristic 1),
-    with the wording of the disk map's check in :mod:`components.core.conformal`."""
-    n = len(V)
-    if not loops:
-        raise MeshError("mesh", "the surface is closed (no boundary): a disk map needs exactly one boundary loop")
-    used = np.zeros(n, dtype=bool)
-    used[T.ravel()] = True
-    A = sp.coo_matrix((np.ones(2 * len(T)), (np.r_[T[:, 0], T[:, 1]], np.r_[T[:, 1], T[:, 2]])), shape=(n, n))
-    labels = connected_components(A, directed=False)[1]
-    comps = len(np.unique(labels[used]))
-    if comps > 1:
-        raise MeshError("mesh", f"the mesh has {comps} connected components; map each one")
-    chi = int(used.sum()) - len(edge_topology(T).E) + len(T)
-    if len(loops) != 1 or chi != 1:
-        genus = (2 - chi - len(loops)) // 2
-        raise MeshError(
-            "mesh",
-            f"not a topological disk ({len(loops)} boundary loops, genus {genus}, Euler characteristic {chi}): "
-            "a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles "
-            "several boundary loops",
-        )
-
-
 def plane_map(V: np.ndarray, T: np.ndarray, method: str = "lscm") -> tuple[np.ndarray, list[str]]:
     """Map a disk-like triangle mesh to the plane, keeping its orientation (counter-clockwise triangles).
 
@@ -131,7 +105,7 @@ def plane_map(V: np.ndarray, T: np.ndarray, method: str = "lscm") -> tuple[np.nd
     """
     check_choice(method, "method", PLANE_MAPS)
     warnings: list[str] = []
-    _check_disk(V, T, boundary_loops(T))
+    check_disk(V, T, boundary_loops(T))
     UV = None
     if method == "lscm":
         UV = lscm(V, T)

@@ -9,7 +9,7 @@ from components.conical.cones import conical_check, face_offset
 from components.conical.optimize import conical_mesh, optimize
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, quad_grid, read_mesh
-from components.planarize.planarizer import face_planarity, planarize_mesh
+from components.core.measures import quad_planarity as face_planarity
 from tests.components.test_conical import revolution_net, translation_net
 from tests.conftest import shared_file
 

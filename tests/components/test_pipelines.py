@@ -35,12 +35,12 @@ def check_candidate(V, F, cand, h, quads=True):
     d = closest_points(Vc, V, T).distances
     assert d.max() <= 0.01 * h
     # the candidate's boundary lies on the input boundary (no interior vertex exposed by the cleanup)
-    from components.fields.extract import _boundary_curve, _closest_on_boundary
+    from components.fields.extract import boundary_curve, closest_on_boundary
     from components.core.mesh import edge_topology
 
     topo = edge_topology(Fc)
     onb = np.unique(topo.E[topo.count == 1].ravel())
-    X = _closest_on_boundary(Vc[onb], _boundary_curve(V, T))[0]
+    X = closest_on_boundary(Vc[onb], boundary_curve(V, T))[0]
     assert np.linalg.norm(X - Vc[onb], axis=1).max() <= 1e-6 * h
     q = candidate_quality(Vc, Fc, h)
     return q
@@ -53,8 +53,9 @@ SAMPLES = ["dome", "saddle", "wave", "canopy"]
 def test_sample_candidates(name):
     V, T, _ = sample_mesh(name, 32)
     h = target_for(V, T, 300)
-    cand = candidate_mesh((V, T), h)
+    cand = candidate_mesh((V, T), h, repair=True)
     q = check_candidate(V, T, cand, h, quads=False)
+    assert cand.health.healthy, cand.health.violations
     assert cand.mean_angle_error < 20
     assert q.quad_ratio >= 0.95
     assert q.edge_length_within >= 0.9
@@ -68,8 +69,9 @@ REAL = [("libigl/inspired_mesh.obj", 1600), ("libigl/lilium.obj", 800),
 def test_real_mesh_candidates(path, quads):
     V, F = read_mesh(shared_file("meshes/" + path))
     h = target_for(V, F, quads)
-    cand = candidate_mesh((V, F), h)
+    cand = candidate_mesh((V, F), h, repair=True)
     q = check_candidate(V, F, cand, h, quads=False)
+    assert cand.health.healthy, cand.health.violations
     assert q.quad_ratio >= 0.95
     assert q.edge_length_within >= 0.9
 
@@ -98,6 +100,7 @@ def test_dome_planarizes_close_to_the_surface():
     assert res.mean_closeness <= 0.02 * mean_edge
     assert res.candidate_max_planarity > res.planarized_max_planarity
     assert res.quad_ratio >= 0.95 and res.time_planarize > 0
+    assert res.healthy and res.violations == [] and res.coverage >= 0.85
 
 
 @pytest.mark.parametrize("name", ["saddle", "wave", "canopy"])
@@ -106,6 +109,7 @@ def test_other_samples_planarize(name):
     h = target_for(V, T, 300)
     res = pq_from_conjugate_field((V, T), h, time_budget=10.0)
     assert res.planarized_max_planarity <= 1e-4
+    assert res.healthy, res.violations
     Vp, Fp = res.planarized
     E = np.concatenate([np.stack([Fp[:, i], Fp[:, (i + 1) % Fp.shape[1]]], 1) for i in range(Fp.shape[1])])
     E = E[E[:, 0] != E[:, 1]]

@@ -1,0 +1,222 @@
+"""Issue #16 for the conjugate-field strategy: fabricable or it says why.
+
+The candidate (``candidate_mesh(..., repair=True)``) is healthy on the sample surfaces and on real meshes at a small
+panel count: no edge under 0.2 × the median, no corner under 20° or over 160°, no non-convex, folded or crossing
+panel, at least 85 % of the surface covered. ``pq_from_conjugate_field`` reports ``healthy`` only for a result the
+independent checker of ``tests/fabricable.py`` passes, and says why otherwise. The candidate does not depend on the
+units or the placement of the model.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from components.core.measures import quad_planarity
+from components.core.proximity import TriangleIndex
+from components.fields import repair
+from components.fields.candidate import candidate_mesh
+from components.fields.pipeline import pq_from_conjugate_field
+from components.metrics.health import face_health
+from tests.fabricable import independent_defects, panel_size, real_surface, sample_surface
+
+SAMPLES = ("dome", "saddle", "wave", "canopy")
+REAL = ("inspired", "minimal_surface")
+INPUTS = SAMPLES + REAL
+
+
+@functools.lru_cache(maxsize=None)
+def surface(name: str):
+    return sample_surface(name) if name in SAMPLES else real_surface(name)
+
+
+def size(name: str) -> float:
+    return panel_size(surface(name)[0], name)  # about 50 panels: the acceptance sweep's size
+
+
+@functools.lru_cache(maxsize=None)
+def candidate(name: str, scale: float = 1.0, offset: float = 0.0):
+    V, T = surface(name)
+    return candidate_mesh((V * scale + offset, T), size(name) * scale, repair=True)
+
+
+@functools.lru_cache(maxsize=None)
+def pipeline(name: str):
+    V, T = surface(name)
+    return pq_from_conjugate_field((V, T), size(name), time_budget=10.0)
+
+
+def shape_facts(V, F) -> dict:
+    """Edge ratio, corner range (3D angles; reflex corners measured as 360° − θ about the face's Newell normal)."""
+    F = np.asarray(F)
+    k = F.shape[1]
+    rows = []
+    for f in F:
+        c = list(f)
+        while len(c) > 3 and c[-1] == c[-2]:
+            c.pop()
+        rows.append(c)
+    L, ang = [], []
+    for c in rows:
+        P = V[c] - V[c[0]]
+        N = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+        for i in range(len(c)):
+            a, b = P[i - 1] - P[i], P[(i + 1) % len(c)] - P[i]
+            t = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
+            ang.append(t if np.cross(-a, b) @ N > 0 else 360.0 - t)
+            L.append(np.linalg.norm(b))
+    L = np.asarray(L)
+    return dict(edge_ratio=float(L.min() / np.median(L)), min_corner=min(ang), max_corner=max(ang), k=k)
+
+
+# ----------------------------------------------------------------------------------------------
+# the candidate
+
+
+@pytest.mark.parametrize("name", INPUTS)
+def test_repaired_candidate_is_healthy(name):
+    V, T = surface(name)
+    c = candidate(name)
+    assert c.health is not None and c.health.healthy, c.health.violations
+    facts = shape_facts(c.V, c.F)
+    assert facts["edge_ratio"] >= 0.2
+    assert 20.0 <= facts["min_corner"] and facts["max_corner"] <= 160.0
+    checked = independent_defects(c.V, c.F, (V, T))
+    assert checked["defects"] == [], checked["defects"]
+    assert checked["coverage"] >= 0.85 and checked["nonconvex_faces"] == 0
+    # still a quad-dominant mesh on the surface: the repair costs at most a few quads (collapsing a short boundary
+    # edge or splitting a pinched quad leaves triangles; at ~50 panels the lobed canopy has ~80 % quads before it)
+    raw = candidate_mesh((V, T), size(name))
+    assert c.quad_ratio >= raw.quad_ratio - 0.07
+    d = TriangleIndex(V, T).query(c.V).distances
+    assert d.max() <= 1e-6 * size(name)
+
+
+def test_repair_fixes_what_the_extraction_leaves():
+    """Without the repair the wave's candidate has a valence-2 interior vertex, pinched and folded quads."""
+    V, T = surface("wave")
+    raw = candidate_mesh((V, T), size("wave"))
+    before = repair.candidate_health(raw.V, raw.F, (V, T))
+    assert not before.healthy
+    r = repair.repaired_candidate(V, raw.T, raw.V, raw.F, raw.tri, raw.bary, np.ones(len(raw.V), bool),
+                                  size("wave"))
+    after = repair.candidate_health(r.V, r.F, (V, T))
+    assert after.healthy, after.violations
+    assert r.actions["dissolved"] + r.actions["smoothed"] > 0
+    assert len(r.F) >= 0.9 * len(raw.F)
+
+
+def test_repair_operations_on_a_grid():
+    """Each repair on a flat 4 × 4 grid: a valence-2 vertex is dissolved, a pinched quad smoothed, a short edge
+    collapsed."""
+    from components.core.mesh import quad_grid, triangulate
+
+    V, Q = quad_grid(4, 4, 4.0, 4.0)
+    T = triangulate(Q)[0]
+    index = TriangleIndex(V, T)
+
+    def run(Vc, F):
+        q = index.query(Vc)
+        return repair.repaired_candidate(V, T, q.points, F, q.faces, q.barycentric, np.ones(len(Vc), bool), 1.0,
+                                         index=index)
+
+    # a quad (5, 6, 11, 10) split by a valence-2 vertex in the middle of its diagonal: two folded halves
+    Vc = np.vstack([V, [[1.5, 1.5, 0.0]]])
+    F = [list(r) for r in Q if not (set(r) == {6, 7, 12, 11})] + [[6, 7, 25, 11], [7, 12, 11, 25]]
+    from components.core.mesh import pad_faces
+
+    r = run(Vc, pad_faces(F))
+    assert r.actions["dissolved"] == 1 and r.health.healthy and len(r.F) == 16
+    # a pinched quad: vertex 6 pushed past the middle of its quad
+    Vc = V.copy()
+    Vc[6] = [1.8, 1.8, 0.0]
+    r = run(Vc, Q)
+    assert r.health.healthy and r.actions["smoothed"] >= 1 and r.health.worst_corner >= 60.0
+    # a short edge: vertex 6 next to vertex 7
+    Vc = V.copy()
+    Vc[6] = [1.9, 1.0, 0.0]
+    r = run(Vc, Q)
+    assert r.health.healthy and r.actions["collapsed"] == 1
+
+
+# ----------------------------------------------------------------------------------------------
+# the strategy: healthy, or it says why
+
+
+@pytest.mark.parametrize("name", INPUTS)
+def test_healthy_is_a_true_claim(name):
+    V, T = surface(name)
+    res = pq_from_conjugate_field((V, T), size(name), time_budget=10.0) if name in REAL else pipeline(name)
+    Vp, Fp = res.planarized
+    if res.healthy:
+        assert res.violations == [] and res.coverage >= 0.85
+        assert res.planarized_max_planarity <= 1e-4
+        facts = shape_facts(Vp, Fp)
+        assert facts["edge_ratio"] >= 0.2 and 20.0 <= facts["min_corner"] and facts["max_corner"] <= 160.0
+        checked = independent_defects(Vp, Fp, (V, T))
+        assert checked["defects"] == [], checked["defects"]
+    else:
+        assert res.violations, "an unhealthy result must say why"
+        assert any("not healthy" in w for w in res.warnings), res.warnings
+    # the outputs are the measure's, against the design surface
+    h = face_health(Vp, Fp, (V, T), tolerance=1e-4)
+    assert h.healthy == res.healthy and h.coverage == pytest.approx(res.coverage)
+
+
+def test_an_unreached_tolerance_is_never_healthy():
+    V, T = surface("wave")
+    res = pq_from_conjugate_field((V, T), size("wave"), tolerance=1e-9, time_budget=0.5)
+    assert res.planarized_max_planarity > 1e-9
+    assert not res.healthy
+    assert any("not planar" in v for v in res.violations)
+    warning = next(w for w in res.warnings if "not healthy" in w)
+    assert "panels with defects" in warning and f"of {len(res.planarized[1])} panels" in warning
+
+
+def test_without_planarization_the_candidate_is_judged():
+    V, T = surface("dome")
+    res = pq_from_conjugate_field((V, T), size("dome"), planarize=False)
+    assert res.healthy and res.violations == [] and res.coverage >= 0.85  # planarity is not asked for
+
+
+# ----------------------------------------------------------------------------------------------
+# units and placement
+
+
+UNITS = (("x0.001", 1e-3, 0.0), ("x1000", 1e3, 0.0), ("+5e6", 1.0, 5e6))
+
+
+@pytest.mark.parametrize("label, scale, offset", UNITS)
+def test_candidate_does_not_depend_on_units(label, scale, offset):
+    """The wave sample at ×0.001, ×1000 and moved by 5e6: the same faces and, measured back in the ×1 frame, the
+    same vertices (to 1e-9 of the panel size when scaled; moved by 5e6 the input itself is rounded by ~1e-9, which
+    the curvature estimate makes 1e-8 and the field's sampled local step up to 0.3° on a few faces: 2e-3 of the
+    panel size here)."""
+    ref = candidate("wave")
+    c = candidate("wave", scale, offset)
+    assert np.array_equal(c.F, ref.F), label
+    X = (c.V - offset) / scale
+    assert np.abs(X - ref.V).max() <= (1e-9 if offset == 0.0 else 1e-2) * size("wave")
+    p, p0 = quad_planarity(X, c.F).max(), quad_planarity(ref.V, ref.F).max()
+    assert p == pytest.approx(p0, rel=1e-3)
+    assert c.health.healthy == ref.health.healthy
+
+
+@pytest.mark.xfail(strict=False, reason=(
+    "planarize_mesh's path depends on the last bits of its input (components/planarize, in progress): on one "
+    "identical wave candidate it took 46 / 64 / 96 / 78 iterations at x0.001 / x1 / x1000 / +5e6, and in an "
+    "earlier state stopped at its 100-iteration cap at 1.2e-2 / 2.1e-2 / 2.5e-2 off x1 (9.0e-5 at x1); 1e-13 of "
+    "noise on the x1 vertices changes the run as much"))
+def test_strategy_does_not_depend_on_units():
+    """The same through the planarization: face counts equal, max planarity within 2× (planarities under 1e-6,
+    1 % of the tolerance, count as equal)."""
+    V, T = surface("wave")
+    got = {}
+    for label, scale, offset in (("x1", 1.0, 0.0),) + UNITS:
+        res = pq_from_conjugate_field((V * scale + offset, T), size("wave") * scale, time_budget=10.0)
+        X = (res.planarized[0] - offset) / scale
+        got[label] = (len(res.planarized[1]), max(float(quad_planarity(X, res.planarized[1]).max()), 1e-6))
+    assert len({n for n, _ in got.values()}) == 1, got
+    pl = np.array([p for _, p in got.values()])
+    assert pl.max() <= 2.0 * pl.min(), got
