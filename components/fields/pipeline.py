@@ -26,9 +26,7 @@ import numpy as np
 from components.core.checks import check_number
 from components.core.errors import InputError
 from components.core.types import Integers, Mesh, Texts, Vectors
-# Aliases for callers outside the package: candidate_mesh (benchmarks/fields.py imports it from here, where it lived
-# before candidate.py) and extract_quads (ghserver.endpoints, whose import line names this module, not candidate).
-from components.fields.candidate import candidate_mesh, candidate_quality, extract_quads  # noqa: F401
+from components.fields.candidate import candidate_mesh, candidate_quality
 from components.metrics.health import face_health
 from components.planarize.planarizer import planarize_mesh
 

@@ -70,11 +70,8 @@ from components.planarize.phases import final_state, iterate
 from components.planarize.problem import OPT_ITERATIONS, checked_options, setup_problem
 from components.planarize.verdict import result_verdict
 
-__all__ = ["PlanarizeResult", "planarize", "on_surface", "planarize_mesh", "face_planarity"]
+__all__ = ["PlanarizeResult", "planarize", "on_surface", "planarize_mesh"]
 
-# Alias of components.core.measures.quad_planarity kept for callers outside this package
-# (tests/components/test_conical_opt.py, benchmarks/subdivide.py); new code takes it from components.core.measures.
-face_planarity = quad_planarity
 
 
 class PlanarizeResult(NamedTuple):
