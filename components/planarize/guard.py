@@ -12,9 +12,9 @@ the bounds do not depend on the model's units or placement):
   :func:`~components.planarize.geometry.corner_turns`) may not fall below ``g ×`` the quads' worst input turn
   (nor below ``g ×`` its own): no watched face turns non-convex.
 * **edges**: no edge shorter than ``ρe·median`` (``ρe = opts.min_edge_ratio``; one that starts shorter may lose at
-  most 10 %) nor than ``g × `` its input length.
+  most 10 %, and has a row lifting it over ``ρe·median``) nor than ``g × `` its input length.
 * **faces**: no face area under ``ρa·median`` (``ρa = opts.min_area_ratio``; one that starts smaller may lose at
-  most 10 %) nor under ``g² ×`` its input area.
+  most 10 %, and has a row lifting it over the bound) nor under ``g² ×`` its input area.
 * **folds**: two faces sharing an edge may not open by less than ``min(A, g × the input's smallest opening)``
   (their unit normals ``n1 · n2 ≥ −cos`` of that).
 * **crossings**: no face may cross or overlap a face it shares no vertex with, unless the two crossed in the
@@ -147,6 +147,10 @@ def panel_guard(prob) -> PanelGuard:
     len_in = np.linalg.norm(prob.X0[prob.E[:, 1]] - prob.X0[prob.E[:, 0]], axis=1)
     len_min = _item_bound(len_in, opts.min_edge_ratio * (1.0 + _DRIFT), g)
     area_min = _item_bound(area_in, opts.min_area_ratio * (1.0 + _DRIFT) ** 2, g * g)
+    # an edge or face that starts under the verdict's bound gets a row lifting it over the bound (it may not lose
+    # more than 10 % on the way): the verdict judges the result by the bound, not by the input
+    len_lift = np.maximum(len_min, _median_bound(len_in, opts.min_edge_ratio * (1.0 + _DRIFT)))
+    area_lift = np.maximum(area_min, _median_bound(area_in, opts.min_area_ratio * (1.0 + _DRIFT) ** 2))
     fold_faces = prob.inner_faces
     cos_in = np.einsum("ij,ij->i", N0[fold_faces[:, 0]], N0[fold_faces[:, 1]])
     opening_in = math.pi - np.arccos(np.clip(cos_in, -1.0, 1.0))
@@ -162,12 +166,17 @@ def panel_guard(prob) -> PanelGuard:
         len_in=len_in, len_min=len_min, area_in=area_in, area_min=area_min,
         item_on=np.concatenate([on_c, on_c, np.ones(len(len_in) + len(area_in) + len(fold_faces), bool)]),
         item_min=np.concatenate([floor, turn_min, len_min, area_min, fold_min]),
-        item_act=np.concatenate([sharp_act, turn_act, _EDGE_MARGIN[0] * len_min, _AREA_MARGIN[0] * area_min,
+        item_act=np.concatenate([sharp_act, turn_act, _EDGE_MARGIN[0] * len_lift, _AREA_MARGIN[0] * area_lift,
                                  fold_act]),
-        item_tgt=np.concatenate([sharp_tgt, turn_tgt, _EDGE_MARGIN[1] * len_min, _AREA_MARGIN[1] * area_min,
+        item_tgt=np.concatenate([sharp_tgt, turn_tgt, _EDGE_MARGIN[1] * len_lift, _AREA_MARGIN[1] * area_lift,
                                  fold_tgt]),
         fold_faces=fold_faces, open_min=open_min, crossings_in=cross_in[:, 0] * len(F) + cross_in[:, 1],
         bounds=health_bounds(opts, angle_in, len_in, area_in))
+
+
+def _median_bound(own, ratio_of_median) -> float:
+    """``ratio × median`` of the items' input values (0 without items)."""
+    return ratio_of_median * float(np.median(own)) if len(own) else 0.0
 
 
 def _item_bound(own, ratio_of_median, own_fraction) -> np.ndarray:

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from components.planarize.guard import State, evaluate
+from components.planarize.guard import PanelGuard, State, evaluate, panel_guard
 from components.planarize.problem import closeness
 from components.planarize.rows import soft_terms
 from components.planarize.step import Factorization, Step, predicted_gain, solve_step
@@ -44,6 +44,10 @@ _OPT_DECREASE = 0.01  # optimize phase ends when an iteration lowers the soft ob
 _OPT_MIN_MOVE = 0.01  # ... or promises less than moving every vertex this far (mean edges) would (½ d² each)
 _STALL = 10  # iterations without improvement before giving up
 _SLOW = 0.01  # ... or without the worst face improving by this fraction
+_HELD_BETA = 0.25  # restore phase: an accepted step shorter than this fraction of the feasibility step is held
+_HELD_STEPS = 3  # ... this many held steps in a row relax the closeness stiffness
+_RELAX_CLOSENESS = 1.0 / 3.0  # factor of one relaxation
+_RELAX_FLOOR = 1.0 / 100.0  # the closeness stiffness is never relaxed below this share of the given one
 
 
 @dataclass
@@ -70,6 +74,10 @@ class Run:
     soft_cache: tuple | None = None  # (X, soft_terms(X)) of the current state, when the optimize test computed it
     last_fact: Factorization | None = None  # of the latest accepted step
     blocked_by: tuple = ()  # the guards that rejected the last trials of a failed step
+    alpha_full: float = 0.0  # the closeness stiffness asked for (``prob.alpha`` is lowered while the guard holds)
+    held: int = 0  # restore steps in a row shorter than ``_HELD_BETA``
+    relaxed_to: float = 1.0  # the lowest share of the closeness stiffness the restore phase used
+    guard: PanelGuard | None = None  # the guard in force (its relative bounds may be relaxed once)
 
     def elapsed(self) -> float:
         return time.perf_counter() - self.t0
@@ -89,7 +97,8 @@ def start(prob, guard, t0: float) -> Run:
     """The run at the input (sliding vertices put on their loops), before any step."""
     Xs, tangents = prob.project_slide(prob.X0)
     cur = evaluate(prob, guard, Xs, tangents)
-    run = Run(t0=t0, cur=cur, best=cur, start_score=cur.score, sticky=np.zeros(guard.n_items, dtype=bool))
+    run = Run(t0=t0, cur=cur, best=cur, start_score=cur.score, sticky=np.zeros(guard.n_items, dtype=bool),
+              alpha_full=prob.alpha, guard=guard)
     _record(prob, run, cur)
     run.converged = cur.score <= 1.0
     if run.converged:
@@ -111,6 +120,8 @@ def _optimize_promises_enough(prob, run: Run) -> bool:
     gain, f_here = predicted_gain(prob, run.cur.X, run.soft_cache[1], run.last_fact)
     log.debug("   optimize test: predicted gain %.4g of f %.6g (%.3g%%)", gain, f_here,
               100 * gain / max(f_here, 1e-300))
+    if gain < 0.0:  # the model is off (the guard rows of the last step hold items that moved since): try a step
+        return True
     return not (gain < _OPT_DECREASE * f_here or gain < 0.5 * _OPT_MIN_MOVE**2 * prob.ndof / 3.0)
 
 
@@ -122,6 +133,7 @@ def iterate(prob, guard, t0: float) -> Run:
         if run.converged:
             if run.phase == "restore" and opts.optimize_iterations > 0 and run.elapsed() < 0.5 * opts.time_budget:
                 run.phase = "optimize"
+                _restore_closeness(prob, run)
             elif run.phase != "optimize":
                 run.stop_reason = "tolerance reached"
                 break
@@ -138,7 +150,7 @@ def iterate(prob, guard, t0: float) -> Run:
         soft = run.soft_cache[1] if run.soft_cache is not None and run.soft_cache[0] is X else soft_terms(prob, X)
         run.soft_cache = None
         optimize = run.phase == "optimize"
-        step = solve_step(prob, guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize)
+        step = solve_step(prob, run.guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize)
         if step.singular:
             run.stop_reason = "the linear system is singular (coincident vertices or collapsed faces in the mesh)"
             break
@@ -150,6 +162,8 @@ def iterate(prob, guard, t0: float) -> Run:
             if run.sticky.any() and not run.guard_reset:  # the guard rows kept from earlier steps may be what
                 run.sticky[:] = False  # blocks this one: retry once with only the corners the state needs
                 run.guard_reset = True
+                continue
+            if _relax_closeness(prob, run):  # a softer metric gives the correction room within the guard
                 continue
             if run.best.score <= 1.0:
                 run.stop_reason = "no further progress"
@@ -190,7 +204,11 @@ def _advance(prob, run: Run, step: Step, f_cur: float, optimize: bool):
                 or f_cur - step.f_new < _OPT_DECREASE * f_cur or run.elapsed() > 0.5 * opts.time_budget):
             run.phase = "polish"
             run.since_best = 0
-    elif run.since_best >= _STALL and not run.converged:
+    elif run.phase == "restore" and not run.converged:
+        run.held = run.held + 1 if step.beta < _HELD_BETA else 0
+        if run.held >= _HELD_STEPS and _relax_closeness(prob, run):
+            run.mark, run.since_mark, run.since_best = cur.score, 0, 0
+    if run.since_best >= _STALL and not run.converged and not optimize:
         run.stop_reason = f"stalled (no improvement in {_STALL} iterations)"
     if cur.score < (1.0 - _SLOW) * run.mark or run.phase != "restore":
         run.mark, run.since_mark = cur.score, 0
@@ -199,6 +217,51 @@ def _advance(prob, run: Run, step: Step, f_cur: float, optimize: bool):
         if run.since_mark >= _STALL and not run.converged and not run.stop_reason:
             run.stop_reason = (f"stalled (the worst face improved less than {_SLOW:.0%} in {_STALL} iterations: "
                                "the panel-health guard holds it)")
+
+
+def _relax_closeness(prob, run: Run) -> bool:
+    """Lower the closeness stiffness by ``_RELAX_CLOSENESS`` (not below ``_RELAX_FLOOR`` of the given one) when the
+    panel-health guard holds the restore phase; whether it was lowered.
+
+    A stiff closeness metric leaves the planarity correction only the directions within the surface, where it
+    shears the net into the guard's bounds (corners at 20°, edges at 0.2 × the median; measured on conjugate-field
+    candidates of the wave sample: 100 iterations to 1.2e-2 at closeness weight 10, 19 iterations to 1e-4 at
+    0.33). The optimize phase, once the tolerance is met, runs at the full stiffness again and pulls the planar
+    mesh back toward the surface (:func:`_restore_closeness`).
+    """
+    if run.phase != "restore":
+        return False
+    if run.alpha_full > 0.0 and prob.alpha > run.alpha_full * _RELAX_FLOOR * (1.0 + 1e-9):
+        prob.alpha = max(prob.alpha * _RELAX_CLOSENESS, run.alpha_full * _RELAX_FLOOR)
+        run.relaxed_to = min(run.relaxed_to, prob.alpha / run.alpha_full)
+        log.debug("planarize: the guard holds the restore phase; closeness stiffness relaxed to %.3g of the given",
+                  prob.alpha / run.alpha_full)
+    elif prob.opts.angle_guard > prob.opts.relaxed_guard:  # then the guard's share of the input's own values
+        prob.opts = prob.opts._replace(angle_guard=prob.opts.relaxed_guard)
+        run.guard = panel_guard(prob)
+        run.cur = evaluate(prob, run.guard, run.cur.X, run.cur.tangents)
+        log.debug("planarize: the guard holds the restore phase; its share of the input's values relaxed to %g",
+                  prob.opts.angle_guard)
+    else:
+        return False
+    run.held = 0
+    run.sticky[:] = False
+    run.guard_reset = False
+    run.soft_cache = None
+    return True
+
+
+def _restore_closeness(prob, run: Run):
+    """Back to the given closeness stiffness (the optimize phase judges closeness by it); the best feasible state
+    is measured again by it."""
+    if prob.alpha == run.alpha_full:
+        return
+    prob.alpha = run.alpha_full
+    run.soft_cache = None
+    run.last_fact = None  # its metric is the relaxed one: the first optimize step solves afresh
+    if run.feasible_best is not None:
+        st = run.feasible_best[0]
+        run.feasible_best = (st, soft_terms(prob, st.X, value_only=True))
 
 
 def final_state(run: Run) -> State:

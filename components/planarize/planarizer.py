@@ -109,6 +109,7 @@ def planarize_mesh(
     absolute_tolerance: float = 0.0, max_iterations: int = 100, time_budget: float = 30.0, angle_guard: float = 0.5,
     relax: float = 0.9, optimize_iterations: int = OPT_ITERATIONS, mesh_name: str = "mesh",
     min_angle: float = 20.0, min_edge_ratio: float = 0.2, min_area_ratio: float = 0.1, min_coverage: float = 0.85,
+    relaxed_guard: float | None = None,
 ) -> PlanarizeResult:
     """Make every face of a polygon mesh planar while keeping it close, fair, anchored and healthy.
 
@@ -171,11 +172,18 @@ def planarize_mesh(
         Degrees: no corner may go below it (nor above 180° minus it), nor two faces sharing an edge open by less;
         when the input's worst corner is already below, that is the bound.
     min_edge_ratio : float
-        No edge may get shorter than this × the input's median edge (an edge that starts shorter may not shrink).
+        No edge may get shorter than this × the input's median edge (an edge that starts shorter may lose at most
+        10 %, and the solver tries to lift it over the bound).
     min_area_ratio : float
-        No face may get smaller than this × the input's median face area (one that starts smaller may not shrink).
+        No face may get smaller than this × the input's median face area (the same for one that starts smaller).
     min_coverage : float
         With a reference: the result must cover at least this share of it to be healthy.
+    relaxed_guard : float, optional
+        In ``[0, angle_guard]``: the ``angle_guard`` the solver may fall back to when the guard holds the planarity
+        correction after the closeness stiffness was relaxed (``None``: never; the fabrication bounds above always
+        stay). When the guard holds the correction (steps under a quarter of the Gauss-Newton step), the solver
+        first lowers the closeness stiffness (÷3 at a time, to 1/100 of ``closeness_weight``) until planarity is
+        restored, and pulls the planar mesh back toward the reference at the full weight in the optimize phase.
 
     Returns
     -------
@@ -200,7 +208,7 @@ def planarize_mesh(
         anchors=anchors, anchor_points=anchor_points, tolerance=tolerance, absolute_tolerance=absolute_tolerance,
         max_iterations=max_iterations, time_budget=time_budget, angle_guard=angle_guard, relax=relax,
         optimize_iterations=optimize_iterations, min_angle=min_angle, min_edge_ratio=min_edge_ratio,
-        min_area_ratio=min_area_ratio, min_coverage=min_coverage)
+        min_area_ratio=min_area_ratio, min_coverage=min_coverage, relaxed_guard=relaxed_guard)
     return _solved(V, F, reference, "reference", opts, mesh_name, t0)
 
 
@@ -214,8 +222,8 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
     if not np.any(face_sizes(prep.F) >= 4):
         return _triangles_only(V, F, prep, ref, opts, t0)
     prob = setup_problem(prep.V, prep.F, ref, opts, mesh_name)
-    guard = panel_guard(prob)
-    run = iterate(prob, guard, t0)
+    run = iterate(prob, panel_guard(prob), t0)
+    guard = run.guard  # its relative bounds may have been relaxed while the guard held the restore phase
     final = final_state(run)
     X = final.X * prob.scale + prob.center
     X[prob.fixed] = prep.V[prob.fixed]  # exactly unmoved
@@ -234,6 +242,12 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
     con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
     warp = warping_height(X, Fw)
     verdict = result_verdict(prob, guard, run, X, ref, pl, warp, con, min_angle, n_ncv)
+    if run.relaxed_to < 1.0 and run.opt_its == 0:
+        verdict.warnings.append(
+            f"closeness: the panel-health guard held the planarization at closeness weight {opts.closeness_weight:g}; "
+            f"planarity was restored at {run.relaxed_to * opts.closeness_weight:.3g} and not optimized back (mean "
+            f"closeness {float(d[used].mean()):.3g}); a larger time_budget lets the optimize phase pull the mesh "
+            f"back toward the surface")
     converged = bool(run.converged and verdict.healthy)
     stop_reason = run.stop_reason if converged or not run.converged else f"{run.stop_reason}; panels not healthy"
     fixed_in = prob.fixed if prep.rep is None else prob.fixed[prep.rep]

@@ -75,6 +75,7 @@ class Options(NamedTuple):
     min_edge_ratio: float = 0.2  # × the input's median edge: no edge shorter (or than the input's shortest)
     min_area_ratio: float = 0.1  # × the input's median face area: no face smaller (or than the input's smallest)
     min_coverage: float = 0.85  # share of the reference the result must cover to be healthy
+    relaxed_guard: float = 0.5  # the ``angle_guard`` the solver may relax to when the guard holds planarity
 
 
 def checked_options(
@@ -84,7 +85,7 @@ def checked_options(
     edge_length_weight=0.0, target_edge_length=0.0, area_weight=0.0, target_area=0.0, conical_weight=0.0,
     boundary="free", anchors=None, anchor_points=None, tolerance=1e-4, absolute_tolerance=0.0,
     max_iterations=100, time_budget=30.0, angle_guard=0.5, relax=0.9, optimize_iterations=OPT_ITERATIONS,
-    min_angle=20.0, min_edge_ratio=0.2, min_area_ratio=0.1, min_coverage=0.85,
+    min_angle=20.0, min_edge_ratio=0.2, min_area_ratio=0.1, min_coverage=0.85, relaxed_guard=None,
 ) -> Options:
     """Check the solver's options (``n``: the mesh's vertex count, for the anchors) and return them canonical.
 
@@ -93,7 +94,8 @@ def checked_options(
     InputError
         A weight, target, tolerance or budget is negative or not a finite number, ``angle_guard``, ``relax``,
         ``min_edge_ratio``, ``min_area_ratio`` or ``min_coverage`` is not in ``[0, 1]``, ``min_angle`` not in
-        ``[0, 60]`` (degrees), an iteration count is not a whole number, a mode is unknown, an anchor is not a vertex
+        ``[0, 60]`` (degrees), ``relaxed_guard`` (``None``: ``angle_guard``, never relaxed) not in
+        ``[0, angle_guard]``, an iteration count is not a whole number, a mode is unknown, an anchor is not a vertex
         index or an anchor point not a finite point.
 
     Example
@@ -114,6 +116,8 @@ def checked_options(
         ("angle_guard", angle_guard), ("relax", relax), ("min_edge_ratio", min_edge_ratio),
         ("min_area_ratio", min_area_ratio), ("min_coverage", min_coverage))}
     min_angle = check_number(min_angle, "min_angle", 0, 60)
+    relaxed = frac["angle_guard"] if relaxed_guard is None else check_number(relaxed_guard, "relaxed_guard", 0,
+                                                                              frac["angle_guard"])
     max_it = check_int(max_iterations, "max_iterations", 0)
     opt_cap = check_int(optimize_iterations, "optimize_iterations")
     boundary = check_choice(boundary, "boundary", BOUNDARY_MODES)
@@ -129,7 +133,7 @@ def checked_options(
         num["edge_length_weight"], num["target_edge_length"], num["area_weight"], num["target_area"],
         num["conical_weight"], boundary, anchor_idx, apts, tol, atol, use_abs, max_it, num["time_budget"],
         frac["angle_guard"], frac["relax"], opt_cap, min_angle, frac["min_edge_ratio"], frac["min_area_ratio"],
-        frac["min_coverage"])
+        frac["min_coverage"], relaxed)
 
 
 def _anchor_indices(anchors, n):

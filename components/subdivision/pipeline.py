@@ -56,13 +56,11 @@ HEALTH_BOUNDS = {"min_edge_ratio": 0.2, "min_angle": 20.0, "min_area_ratio": 0.1
 #: steps of the bisection for the healthy state between the candidate and the planarized mesh (1/64 of the way)
 _BACKOFF_STEPS = 6
 _SHAPE_DEFECTS = ~DEFECT_BITS["nonplanar"]  # every defect bit but planarity
-#: closeness weight of the second planarization, × the given one, when the first misses the tolerance (a stiff
-#: closeness metric lets the guard hold the net: see :func:`_planarized`)
-_RETRY_CLOSENESS = 1.0 / 30.0
-#: ... and its ``angle_guard``: an edge may then shrink below half its input length (and a corner, a turn or a fold
-#: opening below half the input's worst) as long as the fabrication bounds above hold; inspired_mesh stalls at
-#: 0.012 with 0.5 (edges held at 0.21 × the median)
-_RETRY_GUARD = 0.05
+#: the planarizer's ``relaxed_guard``: when its guard holds the net after the closeness stiffness was relaxed, an
+#: edge may shrink below half its input length (and a corner, a turn or a fold opening below half the input's
+#: worst) as long as the fabrication bounds hold (inspired_mesh's net stalls at 0.012 otherwise, edges held at
+#: 0.21 × the median)
+_RELAXED_GUARD = 0.05
 
 
 class SubdivisionPQ(NamedTuple):
@@ -96,30 +94,17 @@ def _guard_options() -> dict:
     return {k: v for k, v in HEALTH_BOUNDS.items() if k in params}
 
 
-def _planarized(Xc, Qs, reference, closeness_weight, **kwargs) -> tuple:
-    """The planarizer's result on the candidate, and a note when it was planarized a second time.
+def _planarized(Xc, Qs, reference, closeness_weight, **kwargs):
+    """The planarizer's result on the candidate (boundary sliding on the surface's, its guard at the fabrication
+    bounds).
 
-    A strong closeness weight makes the step metric stiff across the surface, so the planarity correction shears
-    the net within it: on the ogrid nets of wave, canopy and inspired_mesh (levels 2) the guard then holds corners at
-    20-22° and edges at 0.2 × the median with the worst face at 0.017-0.046 (stalled, or still there after 400
-    iterations; with the weight lowered alone inspired_mesh still stalls at 0.012, its edges held at half their
-    input length). When the tolerance is not reached, the candidate is planarized again with the weight
-    ``× _RETRY_CLOSENESS`` and ``angle_guard = _RETRY_GUARD`` (the fabrication bounds stay; measured: all three
-    reach ≤ 9.4e-5 healthy in 27-40 iterations, mean closeness 3-8 % of the mean edge); that result is taken when it
-    is healthy and flatter.
+    The subdivision nets are far from conjugate (max planarity 0.04-0.07 on the ogrid nets of wave, canopy and
+    inspired_mesh at levels 2): at the given closeness weight the guard holds the net; the planarizer then relaxes
+    the closeness stiffness and its relative guard bounds (to :data:`_RELAXED_GUARD`) while it restores planarity, and pulls the planar net
+    back toward the surface at the full weight afterwards (:mod:`components.planarize.phases`).
     """
-    res = planarize_mesh(Xc, Qs, reference=reference, closeness_weight=closeness_weight, boundary="slide",
-                         mesh_name="candidate", **kwargs, **_guard_options())
-    if res.converged or closeness_weight <= 0.0:
-        return res, []
-    weight = closeness_weight * _RETRY_CLOSENESS
-    again = planarize_mesh(Xc, Qs, reference=reference, closeness_weight=weight, boundary="slide",
-                           mesh_name="candidate", angle_guard=_RETRY_GUARD, **kwargs, **_guard_options())
-    if not (again.healthy and again.max_planarity < res.max_planarity):
-        return res, []
-    return again, [f"planarize: the panel-health guard held the planarization at closeness weight "
-                   f"{closeness_weight:g} (max planarity {res.max_planarity:.3g}: {res.stop_reason}); the candidate "
-                   f"was planarized again with closeness weight {weight:g} and angle guard {_RETRY_GUARD:g}"]
+    return planarize_mesh(Xc, Qs, reference=reference, closeness_weight=closeness_weight, boundary="slide",
+                          mesh_name="candidate", relaxed_guard=_RELAXED_GUARD, **kwargs, **_guard_options())
 
 
 def _health(X, Q, tolerance, reference=None) -> PanelHealth:
@@ -305,9 +290,8 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     X = Xc
     if planarize:
         t = time.perf_counter()
-        res, note = _planarized(Xc, Qs, (V, T), closeness_weight, fairness_weight=fairness_weight,
-                                tolerance=tolerance, max_iterations=max_iterations, time_budget=time_budget)
-        warnings += note
+        res = _planarized(Xc, Qs, (V, T), closeness_weight, fairness_weight=fairness_weight,
+                          tolerance=tolerance, max_iterations=max_iterations, time_budget=time_budget)
         timings["planarize"] = time.perf_counter() - t
         warnings += list(res.warnings)
         t = time.perf_counter()

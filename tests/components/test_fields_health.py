@@ -203,11 +203,6 @@ def test_candidate_does_not_depend_on_units(label, scale, offset):
     assert c.health.healthy == ref.health.healthy
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "planarize_mesh's path depends on the last bits of its input (components/planarize, in progress): on one "
-    "identical wave candidate it took 46 / 64 / 96 / 78 iterations at x0.001 / x1 / x1000 / +5e6, and in an "
-    "earlier state stopped at its 100-iteration cap at 1.2e-2 / 2.1e-2 / 2.5e-2 off x1 (9.0e-5 at x1); 1e-13 of "
-    "noise on the x1 vertices changes the run as much"))
 def test_strategy_does_not_depend_on_units():
     """The same through the planarization: face counts equal, max planarity within 2× (planarities under 1e-6,
     1 % of the tolerance, count as equal)."""

@@ -106,10 +106,7 @@ def test_dome_planarizes_close_to_the_surface():
 # issue 16 (open): with the panel-health guards the planarizer holds the healthy wave candidate at max planarity
 # ~1.2e-2 (a corner kept at 159.8°; closeness weight 10 makes it shear along the surface); inspired 1600 stalls at
 # ~1.5e-2 on boundary quads. The result is healthy and its warning says how far (tests/components/test_fields_health.py).
-HELD = pytest.mark.xfail(strict=False, reason="issue 16: the guarded planarizer stops healthy short of 1e-4 here")
-
-
-@pytest.mark.parametrize("name", ["saddle", pytest.param("wave", marks=HELD), "canopy"])
+@pytest.mark.parametrize("name", ["saddle", "wave", "canopy"])
 def test_other_samples_planarize(name):
     V, T, _ = sample_mesh(name, 32)
     h = target_for(V, T, 300)
@@ -122,7 +119,7 @@ def test_other_samples_planarize(name):
     assert res.mean_closeness <= 0.02 * np.linalg.norm(Vp[E[:, 1]] - Vp[E[:, 0]], axis=1).mean()
 
 
-@pytest.mark.parametrize("path,quads", [pytest.param(*REAL[0], marks=HELD)] + REAL[1:])
+@pytest.mark.parametrize("path,quads", REAL)
 def test_real_meshes_planarize(path, quads):
     V, F = read_mesh(shared_file("meshes/" + path))
     h = target_for(V, F, quads)
@@ -215,7 +212,6 @@ def test_bad_options(disk):
         pq_from_conjugate_field(disk, 3.0, closeness_weight=-1.0)
 
 
-@HELD
 def test_closeness_weight_keeps_the_panels_nearer_the_surface():
     V, T, _ = sample_mesh("wave", 32)
     h = target_for(V, T, 300)
