@@ -31,7 +31,14 @@ angles measured in 3D (the plane map need not be conformal):
    their shortest edge; a larger cell with a sharp corner is merged with a neighbour and split again;
 5. interior nodes with four cells whose conical angle criterion ``|ω1 − ω2 + ω3 − ω4|`` is far from 0 (the
    conical optimization would have to bend the mesh away from the surface to meet it) are **moved** in the plane
-   until it is met, or given three cells (an edge removed) or five (a cell split at them).
+   until it is met, or given three cells (an edge removed) or five (a cell split at them);
+6. with ``max_bulge``: cells under which the surface bulges more than that × the median edge from the plane of
+   their corners are **split in two** across their longer extent (between the midpoints of two edges, or from a
+   corner to an edge's midpoint; the cells across take the new nodes), and the rounds above run again (a flat panel
+   over a bulging cell leaves its middle far from the design surface).
+
+A corner is judged by its 3D angle, and is reflex where the plane corner is reflex or where it turns against the
+cell's Newell normal in 3D (a strongly curved cell can be convex in the plane and not in space).
 
 The cells keep their nodes and the lines their directions, except where two nodes meet half-way, a line is run on
 across a cell, or a node is moved for its criterion. Nodes with five or more cells (four on the boundary) are
@@ -55,6 +62,7 @@ __all__ = ["HealedCells", "NODE_BOUNDARY", "NODE_CORNER", "NODE_CROSSING", "heal
 
 NODE_CROSSING, NODE_BOUNDARY, NODE_CORNER = 0, 1, 2
 _ROUNDS = 8  # healing rounds at most (each one collapses, drops and splits what it finds)
+_REFINE_PASSES = 4  # passes splitting bulging cells at most (each one followed by healing rounds)
 
 
 class HealedCells(NamedTuple):
@@ -69,6 +77,7 @@ class HealedCells(NamedTuple):
     dropped_nodes: int  # flat nodes dropped from their cells
     split: int  # cells split along a diagonal (each split counts once)
     left_open: int  # cells still larger than max_face_size, left out
+    refined: int = 0  # bulging cells split in two
 
 
 def _cross2(a, b):
@@ -86,24 +95,26 @@ def _roll(k: int):
     return out
 
 
-def _signed_area(P) -> float:
-    return 0.5 * float(np.sum(_cross2(P, P[_roll(len(P))[0]])))
+def _c2(ax, ay, bx, by) -> float:
+    return ax * by - ay * bx
 
 
 def _simple_ccw(P) -> bool:
-    """The polygon ``P (k, 2)`` turns counter-clockwise and no two of its non-adjacent edges meet."""
-    if _signed_area(P) <= 0.0:
+    """The polygon ``P (k, 2)`` turns counter-clockwise and no two of its non-adjacent edges meet (plain floats)."""
+    L = P.tolist() if isinstance(P, np.ndarray) else P
+    k = len(L)
+    if sum(_c2(L[i][0], L[i][1], L[(i + 1) % k][0], L[(i + 1) % k][1]) for i in range(k)) <= 0.0:
         return False
-    k = len(P)
     if k <= 3:
         return True
-    A, B = P, P[_roll(k)[0]]
     for i in range(k):
+        (ax, ay), (bx, by) = L[i], L[(i + 1) % k]
         for j in range(i + 2, k):
             if i == 0 and j == k - 1:
                 continue
-            d1, d2 = _cross2(B[i] - A[i], A[j] - A[i]), _cross2(B[i] - A[i], B[j] - A[i])
-            d3, d4 = _cross2(B[j] - A[j], A[i] - A[j]), _cross2(B[j] - A[j], B[i] - A[j])
+            (cx, cy), (dx, dy) = L[j], L[(j + 1) % k]
+            d1, d2 = _c2(bx - ax, by - ay, cx - ax, cy - ay), _c2(bx - ax, by - ay, dx - ax, dy - ay)
+            d3, d4 = _c2(dx - cx, dy - cy, ax - cx, ay - cy), _c2(dx - cx, dy - cy, bx - cx, by - cy)
             if d1 * d2 <= 0.0 and d3 * d4 <= 0.0:
                 return False
     return True
@@ -132,13 +143,34 @@ def _angle(a, b) -> float:
 
 def _angles3(P, Q) -> np.ndarray:
     """Interior angles (degrees, 0..360) of a cell with counter-clockwise plane corners ``P (k, 2)`` and surface
-    corners ``Q (k, 3)``: the 3D angle, reflex (360° minus it) where the plane corner is reflex (the plane map need not
-    be conformal, the panels' angles are the 3D ones)."""
-    nx, pv = _roll(len(Q))
-    a = Q[nx] - Q
-    b = Q[pv] - Q
-    a3 = np.degrees(np.arctan2(np.sqrt(np.sum(_cross3(a, b) ** 2, axis=1)), np.einsum("ij,ij->i", a, b)))
-    return np.where(_interior_angles(P) <= 180.0, a3, 360.0 - a3)
+    corners ``Q (k, 3)``: the 3D angle, reflex (360° minus it) where the plane corner is reflex or where the corner
+    turns against the cell's Newell normal in 3D (the plane map need not be conformal, the panels' angles are the
+    3D ones). Plain floats: the cells are small and this runs for every cell many times."""
+    k = len(Q)
+    P, Q = P.tolist(), Q.tolist()
+    cx = sum(q[0] for q in Q) / k
+    cy = sum(q[1] for q in Q) / k
+    cz = sum(q[2] for q in Q) / k
+    Y = [(q[0] - cx, q[1] - cy, q[2] - cz) for q in Q]
+    nx = ny = nz = 0.0
+    for i in range(k):
+        a, b = Y[i], Y[(i + 1) % k]
+        nx += a[1] * b[2] - a[2] * b[1]
+        ny += a[2] * b[0] - a[0] * b[2]
+        nz += a[0] * b[1] - a[1] * b[0]
+    out = np.empty(k)
+    for i in range(k):
+        q, qn, qp = Q[i], Q[(i + 1) % k], Q[i - 1]
+        ax, ay, az = qn[0] - q[0], qn[1] - q[1], qn[2] - q[2]
+        bx, by, bz = qp[0] - q[0], qp[1] - q[1], qp[2] - q[2]
+        wx, wy, wz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        a3 = math.degrees(math.atan2(math.sqrt(wx * wx + wy * wy + wz * wz), ax * bx + ay * by + az * bz))
+        p, pn, pp = P[i], P[(i + 1) % k], P[i - 1]
+        plane_reflex = (pn[0] - p[0]) * (pp[1] - p[1]) - (pn[1] - p[1]) * (pp[0] - p[0]) < 0.0
+        # a corner turning against the face's Newell normal is reflex in 3D even where the plane corner is convex
+        against = k > 3 and wx * nx + wy * ny + wz * nz < 0.0
+        out[i] = 360.0 - a3 if plane_reflex or against else a3
+    return out
 
 
 def _split_angles3(P, Q, i, tp, tq) -> np.ndarray:
@@ -154,9 +186,21 @@ def _split_angles3(P, Q, i, tp, tq) -> np.ndarray:
 
 
 def _area3(X) -> float:
-    """Area of a (non-planar) polygon ``X (k, 3)`` by Newell's vector (relative to its centroid)."""
-    Y = X - X.mean(axis=0)
-    return 0.5 * float(np.sqrt(np.sum(_cross3(Y, Y[_roll(len(Y))[0]]).sum(axis=0) ** 2)))
+    """Area of a (non-planar) polygon ``X (k, 3)`` by Newell's vector (relative to its centroid; plain floats)."""
+    Q = X.tolist() if isinstance(X, np.ndarray) else X
+    k = len(Q)
+    cx = sum(q[0] for q in Q) / k
+    cy = sum(q[1] for q in Q) / k
+    cz = sum(q[2] for q in Q) / k
+    nx = ny = nz = 0.0
+    for i in range(k):
+        a, b = Q[i], Q[(i + 1) % k]
+        a0, a1, a2 = a[0] - cx, a[1] - cy, a[2] - cz
+        b0, b1, b2 = b[0] - cx, b[1] - cy, b[2] - cz
+        nx += a1 * b2 - a2 * b1
+        ny += a2 * b0 - a0 * b2
+        nz += a0 * b1 - a1 * b0
+    return 0.5 * math.sqrt(nx * nx + ny * ny + nz * nz)
 
 
 class _Complex:
@@ -360,23 +404,25 @@ def _split_choice(P, Q, min_angle: float, max_face_size: int, diag_scale: float,
 
 def _diagonal_inside(P, i, j) -> bool:
     """The segment ``P[i] P[j]`` runs inside the counter-clockwise polygon ``P`` (inside the corner cones at both
-    ends, crossing no edge)."""
-    k = len(P)
+    ends, crossing no edge; plain floats)."""
+    L = P.tolist() if isinstance(P, np.ndarray) else P
+    k = len(L)
+    two_pi = 2 * math.pi
     for s, t in ((i, j), (j, i)):
-        v_next, v_prev = P[(s + 1) % k] - P[s], P[(s - 1) % k] - P[s]
-        d = P[t] - P[s]
-        interior = math.atan2(_cross2(v_next, v_prev), float(v_next @ v_prev)) % (2 * math.pi)
-        a = math.atan2(_cross2(v_next, d), float(v_next @ d)) % (2 * math.pi)
+        (px, py), (nx_, ny_), (qx, qy), (tx, ty) = L[s], L[(s + 1) % k], L[(s - 1) % k], L[t]
+        vnx, vny, vpx, vpy, dx, dy = nx_ - px, ny_ - py, qx - px, qy - py, tx - px, ty - py
+        interior = math.atan2(_c2(vnx, vny, vpx, vpy), vnx * vpx + vny * vpy) % two_pi
+        a = math.atan2(_c2(vnx, vny, dx, dy), vnx * dx + vny * dy) % two_pi
         if not 1e-9 < a < interior - 1e-9:
             return False
-    A, B = P[i], P[j]
+    (ax, ay), (bx, by) = L[i], L[j]
     for e in range(k):
         f = (e + 1) % k
         if e in (i, j) or f in (i, j):
             continue
-        C, D = P[e], P[f]
-        d1, d2 = _cross2(B - A, C - A), _cross2(B - A, D - A)
-        d3, d4 = _cross2(D - C, A - C), _cross2(D - C, B - C)
+        (cx, cy), (dx, dy) = L[e], L[f]
+        d1, d2 = _c2(bx - ax, by - ay, cx - ax, cy - ay), _c2(bx - ax, by - ay, dx - ax, dy - ay)
+        d3, d4 = _c2(dx - cx, dy - cy, ax - cx, ay - cy), _c2(dx - cx, dy - cy, bx - cx, by - cy)
         if (d1 > 0) != (d2 > 0) and (d3 > 0) != (d4 > 0):
             return False
         if d1 == 0 or d2 == 0:  # an edge end on the diagonal
@@ -413,7 +459,7 @@ def _split_face(cx: _Complex, fid: int, min_angle: float, max_face_size: int, di
 
 def healed_cells(faces, uv, X, kind, lift: Callable, project: Callable, *, min_edge_ratio: float = 0.25,
                  min_angle: float = 22.0, min_area_ratio: float = 0.15, max_face_size: int = 5,
-                 max_criterion: float = 1.0, rounds: int = _ROUNDS) -> HealedCells:
+                 max_criterion: float = 1.0, max_bulge: float | None = None, rounds: int = _ROUNDS) -> HealedCells:
     """Collapse short edges, drop flat nodes, split bad cells and collapse sharp or tiny ones, in rounds; then give
     the four-cell nodes far from conical a better star (see the module's steps 1–5).
 
@@ -447,6 +493,10 @@ def healed_cells(faces, uv, X, kind, lift: Callable, project: Callable, *, min_e
         An interior node with four cells whose conical angle criterion ``|ω1 − ω2 + ω3 − ω4|`` (3D corner angles,
         radians) is above this is moved, or gets three or five cells (an edge removed or a cell split at it), so
         the conical optimization is not asked to bend the mesh away from the surface there.
+    max_bulge : float, optional
+        Cells under which the surface bulges more than this × the median edge from the plane of their corners (at
+        the cell's centre and its edges' midpoints, lifted from the plane) are split in two across their longer
+        extent (:func:`_refine_bulging`), then healed again; ``None``: off.
     rounds : int
         Largest number of healing rounds.
 
@@ -466,21 +516,192 @@ def healed_cells(faces, uv, X, kind, lift: Callable, project: Callable, *, min_e
     ([4, 4], 1, 0)
     """
     cx = _Complex(faces, uv, X, kind)
-    counts = {"collapsed": 0, "dropped": 0, "split": 0, "restarred": 0}
-    for _ in range(rounds):
-        changed = _collapse_short(cx, lift, project, min_edge_ratio, counts)
-        changed |= _drop_flat_nodes(cx, min_angle, counts)
-        changed |= _split_bad(cx, min_angle, max_face_size, max_criterion, lift, project, counts)
-        changed |= _collapse_sharp_and_small(cx, lift, project, min_angle, min_area_ratio, max_face_size,
-                                             max_criterion, counts)
-        if not changed:
+    counts = {"collapsed": 0, "dropped": 0, "split": 0, "restarred": 0, "refined": 0}
+
+    def heal():
+        for _ in range(rounds):
+            changed = _collapse_short(cx, lift, project, min_edge_ratio, counts)
+            changed |= _drop_flat_nodes(cx, min_angle, counts)
+            changed |= _split_bad(cx, min_angle, max_face_size, max_criterion, lift, project, counts)
+            changed |= _collapse_sharp_and_small(cx, lift, project, min_angle, min_area_ratio, max_face_size,
+                                                 max_criterion, counts)
+            if not changed:
+                break
+
+    heal()
+    for _ in range(_REFINE_PASSES if max_bulge is not None else 0):
+        if not _refine_bulging(cx, lift, project, max_bulge, min_angle, min_edge_ratio, counts):
             break
+        heal()
     _conical_stars(cx, _Bounds(min_angle, min_edge_ratio, min_area_ratio, max_face_size, max_criterion), lift, counts)
     out = [f for f in cx.faces.values() if len(f) <= max_face_size]
     left_open = len(cx.faces) - len(out)
     return HealedCells(out, np.array(cx.uv).reshape(-1, 2), np.array(cx.X).reshape(-1, 3),
                        np.array(cx.kind, np.int64), counts["collapsed"], counts["restarred"], counts["dropped"],
-                       counts["split"], left_open)
+                       counts["split"], left_open, counts["refined"])
+
+
+# ----------------------------------------------------------------------------------------------
+# bulging cells
+
+
+def _bulges(cx: _Complex, lift: Callable) -> dict:
+    """``{face id: bulge}``: the largest distance from the plane of a cell's corners (least squares) of the surface
+    points under the cell's centre and its edges' midpoints (taken in the plane and lifted)."""
+    fids = list(cx.faces)
+    if not fids:
+        return {}
+    P = [cx.polygon(cx.faces[g]) for g in fids]
+    samples = [np.vstack([p.mean(axis=0)[None], 0.5 * (p + p[_roll(len(p))[0]])]) for p in P]
+    S = lift(np.concatenate(samples))
+    out, start = {}, 0
+    for g, p, smp in zip(fids, P, samples):
+        Q = cx.points(cx.faces[g])
+        c = Q.mean(axis=0)
+        n = np.linalg.svd(Q - c)[2][-1]
+        out[g] = float(np.abs((S[start:start + len(smp)] - c) @ n).max())
+        start += len(smp)
+    return out
+
+
+def _halves(P, Q, cut):
+    """The two pieces of the cell with plane corners ``P (k, 2)`` and surface corners ``Q (k, 3)`` split along
+    ``cut = ((where, plane point, surface point), (where, ...))``, ``where`` a corner index ``("c", i)`` or an edge
+    index ``("e", e)`` (a new point on edge ``e``): ``(pieces as index lists into the extended corner list, plane
+    points, surface points)``; the extended corner list has the new points after the corners."""
+    k = len(P)
+    seq, extra_p, extra_q = [], [], []
+    on_edge = {c[0][1]: c for c in cut if c[0][0] == "e"}
+    ends = []
+    for i in range(k):
+        seq.append(i)
+        if i in [c[0][1] for c in cut if c[0][0] == "c"]:
+            ends.append(len(seq) - 1)
+        if i in on_edge:
+            extra_p.append(on_edge[i][1])
+            extra_q.append(on_edge[i][2])
+            seq.append(k + len(extra_p) - 1)
+            ends.append(len(seq) - 1)
+    a, b = sorted(ends)
+    pieces = [seq[a:b + 1], seq[b:] + seq[:a + 1]]
+    Pe = np.vstack([P] + [np.asarray(x)[None] for x in extra_p])
+    Qe = np.vstack([Q] + [np.asarray(x)[None] for x in extra_q])
+    return pieces, Pe, Qe
+
+
+def _bisection(cx: _Complex, fid: int, lift: Callable, project: Callable, min_angle: float, min_edge: float):
+    """The best cut of cell ``fid`` in two: between the midpoints of two edges, or from a corner to the midpoint of
+    an edge not at it; every corner of both pieces within ``[min_angle, 180 − min_angle]``, every new edge over
+    ``min_edge`` (3D), the pieces simple. Chosen for the smallest larger piece's diameter (3D), then quads. Returns
+    ``(cut, key)`` or ``None``."""
+    f = cx.faces[fid]
+    k = len(f)
+    P, Q = cx.polygon(f), cx.points(f)
+    nx = _roll(k)[0]
+    M = 0.5 * (P + P[nx])
+    bnd = [cx.he.get((f[(e + 1) % k], f[e])) is None for e in range(k)]
+    for e in range(k):
+        if bnd[e]:
+            M[e] = project(M[e][None])[0]
+    MQ = lift(M)
+    elen = np.linalg.norm(Q[nx] - Q, axis=1)
+    ends = [(("e", e), M[e], MQ[e]) for e in range(k) if 0.5 * elen[e] >= min_edge]
+    ends += [(("c", i), P[i], Q[i]) for i in range(k)]
+    best = None
+    for x in range(len(ends)):
+        for y in range(x + 1, len(ends)):
+            a, b = ends[x], ends[y]
+            if a[0][0] == "c" and b[0][0] == "c":
+                continue
+            if a[0][0] == "c" or b[0][0] == "c":
+                c, e = (a, b) if a[0][0] == "c" else (b, a)
+                if c[0][1] in (e[0][1], (e[0][1] + 1) % k):
+                    continue
+            elif (a[0][1] - b[0][1]) % k in (0,):
+                continue
+            if np.linalg.norm(a[2] - b[2]) < min_edge:
+                continue
+            pieces, Pe, Qe = _halves(P, Q, (a, b))
+            if min(len(q) for q in pieces) < 3:
+                continue
+            ok, diam = True, 0.0
+            for q in pieces:
+                pp, qq = Pe[q], Qe[q]
+                if not _simple_ccw(pp):
+                    ok = False
+                    break
+                ang = _angles3(pp, qq)
+                if ang.min() < min_angle or ang.max() > 180.0 - min_angle:
+                    ok = False
+                    break
+                diam = max(diam, float(np.max(np.linalg.norm(qq[:, None] - qq[None], axis=2))))
+            if not ok:
+                continue
+            key = (-diam * (1.0 - 0.05 * sum(len(q) == 4 for q in pieces)),)
+            if best is None or key > best[1]:
+                best = ((a, b), key)
+    return best
+
+
+def _apply_bisection(cx: _Complex, fid: int, cut, project: Callable, lift: Callable) -> bool:
+    """Split cell ``fid`` along ``cut`` (see :func:`_bisection`): new nodes on the cut edges, also in the cells
+    across them (or on the design boundary)."""
+    f = cx.faces[fid]
+    k = len(f)
+    remove, add, newnode = [fid], [], {}
+    for where, p, q in cut:
+        if where[0] != "e":
+            continue
+        e = where[1]
+        a, b = f[e], f[(e + 1) % k]
+        other = cx.he.get((b, a))
+        newnode[e] = cx.add_node(p, q, NODE_BOUNDARY if other is None else NODE_CROSSING)
+        if other is not None:
+            h = cx.faces[other] if other not in remove else next(x for x in add if b in x and a in x)
+            j = h.index(b)
+            h2 = h[:j + 1] + [newnode[e]] + h[j + 1:]
+            if other in remove:
+                add[add.index(h)] = h2
+            else:
+                remove.append(other)
+                add.append(h2)
+    g, ends = [], []
+    corners = {w[1] for w, _, _ in cut if w[0] == "c"}
+    for i in range(k):
+        g.append(f[i])
+        if i in corners:
+            ends.append(len(g) - 1)
+        if i in newnode:
+            g.append(newnode[i])
+            ends.append(len(g) - 1)
+    a, b = sorted(ends)
+    return cx.edit(remove, [g[a:b + 1], g[b:] + g[:a + 1]] + add)
+
+
+def _refine_bulging(cx: _Complex, lift: Callable, project: Callable, max_bulge: float, min_angle: float,
+                    min_edge_ratio: float, counts) -> bool:
+    """Split every cell whose surface bulges more than ``max_bulge`` × the median edge from its corners' plane in
+    two (:func:`_bisection`), largest bulge first, one cell per neighbourhood per pass; returns whether any was."""
+    E = cx.edges()
+    if not len(E):
+        return False
+    med = float(np.median(_edge_lengths(cx, E)))
+    bul = _bulges(cx, lift)
+    todo = sorted((b, g) for g, b in bul.items() if b > max_bulge * med)[::-1]
+    touched, changed = set(), False
+    for _, g in todo:
+        f = cx.faces.get(g)
+        if f is None or touched.intersection(f):
+            continue
+        choice = _bisection(cx, g, lift, project, min_angle + 4.0, max(2.0 * min_edge_ratio, 0.4) * med)
+        if choice is None:
+            continue
+        near = {v for w in f for h in cx.vf[w] for v in cx.faces[h]}
+        if _apply_bisection(cx, g, choice[0], project, lift):
+            counts["refined"] += 1
+            touched |= near
+            changed = True
+    return changed
 
 
 def manifold_cells(faces: list, n: int) -> tuple[list, int, int]:

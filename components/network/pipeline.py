@@ -1,19 +1,31 @@
 """End-to-end curvature-network strategy: surface + panel size → PQ candidate → conical mesh → face offset.
 
-Steps (project issue 7): the principal curvature network (:mod:`components.network.tracing`), the quad rebuild in
-a conformal plane (:mod:`components.network.rebuild`, boundary and irregular cells healed by
-:mod:`components.network.healing`), conical analysis of the candidate, the conical optimization through the
-planarization solver (:func:`components.conical.optimize.conical_mesh`) and the face offset with its node axes
+Steps (project issue 7): the principal curvature network (:mod:`components.network.tracing`; umbilic regions,
+where every direction is principal, are crossed along the smoothest continuation of the principal directions
+around them), the quad rebuild in a conformal plane (:mod:`components.network.rebuild`, boundary and irregular
+cells healed and cells under which the surface bulges split by :mod:`components.network.healing`), conical
+analysis of the candidate, the conical optimization through the planarization solver
+(:func:`components.conical.optimize.conical_mesh`) and the face offset with its node axes
 (:func:`components.conical.cones.face_offset`).
 
 Fabricable or it says why (project issue 16): the candidate and the result are measured with
 :func:`components.metrics.health.face_health` against the design surface (corners of 20° to 160°, edges over 0.2 ×
-the median, faces over 0.1 × the median area, no folds or crossings, 85% of the surface covered). A folded
-candidate (faces crossing or folded onto each other, flipped against the surface: the curvature lines of a surface
-with umbilics or flat points can fold in the plane map) is never returned: a few folded cells are dropped, else the
-network is traced again at a coarser panel size, else a typed :class:`~components.core.errors.InputError` says why.
-``is_conical`` is claimed only when the tolerance is reached **and** the panels are healthy; anything else comes
-with a warning naming the counts.
+the median, faces over 0.1 × the median area, no folds or crossings, 85% of the surface covered). The optimization
+is guarded a little inside these bounds (:data:`GUARD`). A folded candidate (faces crossing or folded onto each
+other, flipped against the surface: the curvature lines of a surface with umbilics or flat points can fold in the
+plane map) is never returned: a few folded cells are dropped, else the network is traced again at a coarser panel
+size. With the default ``boundary_cells="extend"`` a result that is not healthy is not the last word either:
+
+1. the cells are healed again with a looser bulge bound (:data:`HEAL_TRIES`: fewer, larger cells) and optimized;
+2. if no network candidate gives healthy panels, or the network cannot be built (a surface umbilic or flat almost
+   everywhere, such as a sphere patch, where every direction is principal; a network folding at every panel size
+   tried), the candidate is a quad mesh of the fields stage on the principal directions
+   (:func:`components.fields.candidate.candidate_mesh`, ``field="principal"``, repaired), optimized the same way;
+
+the first healthy result is returned (else the one with the fewest unhealthy faces), and a warning says which
+candidate it is and why. A surface that crosses itself is refused with a typed
+:class:`~components.core.errors.InputError` (every panelling of it folds). ``is_conical`` is claimed only when the
+tolerance is reached **and** the panels are healthy; anything else comes with a warning naming the counts.
 
 Units and placement do not matter: the surface is centred on its bounding box and scaled to unit size before anything
 is computed (and every output is mapped back), so a model in millimetres, metres or placed at 5e6 gives the same
@@ -33,15 +45,17 @@ import numpy as np
 from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_mesh
 from components.core.checks import check_choice, check_mesh, check_number
-from components.core.errors import InputError
+from components.core.errors import InputError, MeshError
 from components.core.measures import quad_planarity
-from components.core.mesh import boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces
+from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
+                                  triangulate)
 from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Lines, Mesh, Texts
+from components.fields.candidate import candidate_mesh
 from components.metrics.health import DEFECT_BITS, face_health
 from components.network.healing import manifold_cells
-from components.network.rebuild import BOUNDARY_CELLS, rebuild_from_network
-from components.network.tracing import network_for_mesh, principal_angle_error
+from components.network.rebuild import BOUNDARY_CELLS, MAX_BULGE, rebuild_from_network
+from components.network.tracing import UMBILIC_REFUSAL, network_for_mesh, principal_angle_error, principal_field
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +65,12 @@ __all__ = ["CurvaturePipelineResult", "curvature_pipeline", "pq_from_curvature_n
 HEALTH = {"min_edge_ratio": 0.2, "min_angle": 20.0, "min_area_ratio": 0.1, "min_coverage": 0.85}
 TOLERANCE = 1e-4  # planarity (scale-free) and angle criterion (radians) of a conical result
 SHAPE_TOLERANCE = 10.0  # planarity bound when judging a candidate's shape (a candidate is not planar yet)
-FOLDS = ("intersecting", "folded", "flipped", "nonmanifold")  # defects of a folded mesh
+#: the bounds the conical optimization is guarded with: a margin inside HEALTH (its guard lets an edge or a corner
+#: end a little under the bound it is given)
+GUARD = {"min_edge_ratio": 0.22, "min_angle": 21.0, "min_area_ratio": 0.11, "min_coverage": 0.85}
+HEAL_TRIES = (MAX_BULGE, 0.2)  # largest bulge of the healed cells (× median edge), per try until one is healthy
+FOLDS = ("intersecting", "folded", "flipped", "nonmanifold")
+FOLD_REFUSAL = "the curvature lines of this surface fold in every rebuild tried"  # how that refusal starts  # defects of a folded mesh
 COARSER = (1.5, 2.0)  # panel-size factors tried when the network's mesh folds
 MAX_REPAIR = 0.05  # largest share of a candidate's cells dropped to repair its folds
 SNAP = 2.0 ** -20  # grid of the centred, unit-size coordinates the computation runs on
@@ -140,20 +159,28 @@ def _without(rb, drop):
                        quad_fraction=float(np.mean(face_sizes(F) == 4)))
 
 
-def _candidate(Vn, Fn, hn, h, umbilic_threshold, boundary_cells, tracer, warnings, t):
+def _candidate(Vn, Fn, hn, h, umbilic_threshold, boundary_cells, tracer, warnings, t, max_bulge=MAX_BULGE,
+               networks=None):
     """Trace the network and rebuild the candidate (normalized units ``hn``; ``h`` the panel size as asked), never a
     folded one: a few folded cells are dropped, else a coarser panel size is tried, else :class:`InputError`.
 
-    Returns ``(V, T, net, rebuild, candidate health)``; puts the seconds spent in ``t["network"]`` and
-    ``t["rebuild"]`` (all tries).
+    Returns ``(V, T, net, rebuild, candidate health)``; adds the seconds spent to ``t["network"]`` and
+    ``t["rebuild"]`` (all tries). ``networks`` (a dict), when given, keeps the traced networks per panel size for
+    the next call.
     """
     tried = []
-    t["network"] = t["rebuild"] = 0.0
+    networks = {} if networks is None else networks
+    t.setdefault("network", 0.0)
+    t.setdefault("rebuild", 0.0)
     for factor in (1.0,) + COARSER:
         t0 = time.perf_counter()
-        V, T, net = network_for_mesh((Vn, Fn), hn * factor, umbilic_threshold, tracer=tracer)
+        if factor not in networks:
+            networks[factor] = network_for_mesh((Vn, Fn), hn * factor, umbilic_threshold, tracer=tracer,
+                                                umbilic="fill")
+        V, T, net = networks[factor]
         t1 = time.perf_counter()
-        rb = rebuild_from_network(V, T, net.lines_1, net.lines_2, hn * factor, boundary_cells=boundary_cells)
+        rb = rebuild_from_network(V, T, net.lines_1, net.lines_2, hn * factor, boundary_cells=boundary_cells,
+                                  max_bulge=max_bulge)
         health = face_health(rb.V, rb.F, (V, T), tolerance=SHAPE_TOLERANCE, **HEALTH)
         t["network"] += t1 - t0
         t["rebuild"] += time.perf_counter() - t1
@@ -181,8 +208,96 @@ def _candidate(Vn, Fn, hn, h, umbilic_threshold, boundary_cells, tracer, warning
         raise InputError("mesh", f"the design surface crosses itself ({len(own)} pairs of crossing faces, e.g. faces "
                                  f"{own[0, 0]} and {own[0, 1]}), so every panelling of it folds ("
                                  + "; ".join(tried) + "); repair the surface first")
-    raise InputError("mesh", "the curvature lines of this surface fold in every rebuild tried (" + "; ".join(tried)
+    raise InputError("mesh", FOLD_REFUSAL + " (" + "; ".join(tried)
                      + "): umbilics or flat points make the network cross itself; use fields/pq_from_conjugate_field")
+
+
+class _Cand(NamedTuple):
+    """A candidate (normalized units) and what building it said."""
+
+    V: np.ndarray
+    F: np.ndarray
+    quad_fraction: float
+    warnings: list
+
+
+class _Outcome(NamedTuple):
+    """One candidate optimized (or not) and judged (normalized units)."""
+
+    X: np.ndarray
+    F: np.ndarray
+    max_planarity: float
+    max_criterion: float
+    max_deviation: float
+    closeness: float
+    healthy: bool
+    coverage: float
+    violations: list
+    is_conical: bool
+    warnings: list
+    bad_faces: int  # faces with a health defect (ranks the unhealthy tries)
+
+
+def _same(a: _Cand, b: _Cand) -> bool:
+    return a.F.shape == b.F.shape and a.V.shape == b.V.shape and np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V)
+
+
+def _judged(V, T, X, F, max_pl, max_crit, max_dev, close, warnings, reached) -> _Outcome:
+    hh = face_health(X, F, (V, T), tolerance=TOLERANCE, **HEALTH)
+    return _Outcome(X, F, max_pl, max_crit, max_dev, close, hh.healthy, hh.coverage, list(hh.violations),
+                    bool(reached and hh.healthy), warnings, int(np.count_nonzero(hh.face_defects)))
+
+
+def _as_is(V, T, cand: _Cand, warnings=()) -> _Outcome:
+    """The candidate itself, judged."""
+    X, F = cand.V, cand.F
+    pl, crit = _max_planarity(X, F), _max_criterion(X, F)
+    fit = cone_fit(X, F)
+    dev = float(fit.deviation.max()) if len(fit.deviation) else 0.0
+    close = float(TriangleIndex(V, T).query(X).distances.mean())
+    return _judged(V, T, X, F, pl, crit, dev, close, list(warnings), pl <= TOLERANCE and crit <= TOLERANCE)
+
+
+def _finished(V, T, cand: _Cand, optimize, closeness_weight, budget, t) -> _Outcome:
+    """The candidate after the conical optimization (guarded a little inside the health bounds, :data:`GUARD`),
+    judged with :data:`HEALTH`; never folded (a folded result gives the candidate back)."""
+    if not optimize:
+        return _as_is(V, T, cand)
+    t2 = time.perf_counter()
+    opt = conical_mesh(cand.V, cand.F, (V, T), closeness_weight=closeness_weight, time_budget=max(budget, 1e-3),
+                       tolerance=TOLERANCE, mesh_name="candidate", **GUARD)
+    t["optimize"] += time.perf_counter() - t2
+    warnings = [w for w in opt.warnings if not w.startswith("panels not healthy")]
+    reached = opt.max_planarity <= TOLERANCE and opt.max_criterion <= TOLERANCE
+    out = _judged(V, T, opt.V, opt.F, opt.max_planarity, opt.max_criterion, opt.max_cone_deviation,
+                  opt.mean_closeness, warnings, reached)
+    if out.healthy:
+        return out
+    hh = face_health(opt.V, opt.F, (V, T), tolerance=TOLERANCE, **HEALTH)
+    if _fold_mask(hh).any():  # never a folded mesh: back to the (unfolded) candidate
+        warnings.append(f"the conical optimization folded the mesh ({_fold_counts(hh)} faces); the candidate is "
+                        "returned unoptimized")
+        return _as_is(V, T, cand, warnings)
+    return out
+
+
+def _fields_candidate(V, T, hn, why: str) -> _Cand | None:
+    """The last resort: a quad candidate of the fields stage on the principal directions
+    (:func:`components.fields.candidate.candidate_mesh`, ``field="principal"``, boundary snapped (one extraction:
+    the "auto" search of six costs several times more, tens of seconds on a large surface at coarse panels),
+    repaired), or ``None`` when it cannot be built."""
+    try:
+        fc = candidate_mesh((V, T), hn, field="principal", boundary="snap", repair=True, name="mesh")
+    except (InputError, MeshError) as exc:
+        log.info("curvature network: no fields fallback (%s)", exc)
+        return None
+    if len(fc.F) == 0:
+        return None
+    w = [why + ": fell back to a quad candidate of the fields stage on the principal directions "
+         "(components.fields.candidate.candidate_mesh, field='principal', a smooth field where they are undefined): "
+         "its edges follow the principal directions only approximately"]
+    return _Cand(np.asarray(fc.V, np.float64), np.asarray(fc.F, np.int64), fc.quads / max(len(fc.F), 1),
+                 w + list(fc.warnings))
 
 
 def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: float = 0.0,
@@ -202,9 +317,10 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     offset : float
         Face offset distance (0: none).
     umbilic_threshold : float
-        Anisotropy threshold of umbilic regions.
+        Anisotropy threshold of umbilic regions (crossed along the filled principal field).
     boundary_cells : {"extend", "trim", "keep"}
-        Boundary cells of the rebuild (see :func:`components.network.rebuild.rebuild_from_network`).
+        Boundary cells of the rebuild (see :func:`components.network.rebuild.rebuild_from_network`); only
+        ``"extend"`` retries with other candidates when the result is not healthy.
     closeness_weight : float
         Weight of the pull to the design surface in the optimization.
     time_budget : float
@@ -223,7 +339,9 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     MeshError
         Malformed mesh, no boundary or not a topological disk.
     InputError
-        Bad numbers or options; a surface umbilic almost everywhere; a network that folds at every panel size tried.
+        Bad numbers or options; a design surface that crosses itself; with ``boundary_cells`` "trim" or "keep", a
+        surface umbilic almost everywhere or a network that folds at every panel size tried (with "extend" those
+        fall back to the fields candidate).
     """
     t = {} if timings is None else timings
     t0 = time.perf_counter()
@@ -234,47 +352,56 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     fr = _frame(V0)
     warnings: list[str] = []
     hn = max(round(h / fr.scale / SNAP), 1) * SNAP  # on the same grid: the same panel size in every unit
-    V, T, net, rb, cand_health = _candidate(fr.to(V0), F0, hn, h, umbilic_threshold, boundary_cells, tracer,
-                                            warnings, t)
-    warnings[:0] = list(net.warnings) + list(rb.warnings)
-    cand_shape = [line for line in cand_health.violations if "not planar" not in line]
-    if cand_shape:
-        warnings.append("candidate panels not healthy: " + "; ".join(cand_shape))
-    err = principal_angle_error(rb.V, rb.F, V, T, net)
-    cand_pl = _max_planarity(rb.V, rb.F)
-    cand_crit = _max_criterion(rb.V, rb.F)
-    if optimize:
-        t2 = time.perf_counter()
-        opt = conical_mesh(rb.V, rb.F, (V, T), closeness_weight=closeness_weight, time_budget=time_budget,
-                           tolerance=TOLERANCE, mesh_name="candidate", **HEALTH)
-        t["optimize"] = time.perf_counter() - t2
-        warnings += opt.warnings
-        X, F = opt.V, opt.F
-        max_pl, max_crit, max_dev = opt.max_planarity, opt.max_criterion, opt.max_cone_deviation
-        close, L = opt.mean_closeness, opt.mean_edge_length
-        healthy, coverage, violations = opt.healthy, opt.coverage, list(opt.violations)
-        is_conical = opt.converged
-        if not healthy:
-            res_health = face_health(X, F, (V, T), tolerance=TOLERANCE, **HEALTH)
-            if _fold_mask(res_health).any():  # never a folded mesh: back to the (unfolded) candidate
-                warnings.append(f"the conical optimization folded the mesh ({_fold_counts(res_health)} faces); the "
-                                "candidate is returned unoptimized")
-                X = rb.V
-                max_pl, max_crit = cand_pl, cand_crit
-                max_dev = float(cone_fit(X, F).deviation.max()) if len(X) else 0.0
-                close = float(TriangleIndex(V, T).query(X).distances.mean())
-                res_health = face_health(X, F, (V, T), tolerance=TOLERANCE, **HEALTH)
-                healthy, coverage, violations = res_health.healthy, res_health.coverage, list(res_health.violations)
-                is_conical = False
-    else:
-        X, F = rb.V, rb.F
-        max_pl, max_crit = cand_pl, cand_crit
-        fit = cone_fit(X, F)
-        max_dev = float(fit.deviation.max()) if len(fit.deviation) else 0.0
-        close = float(TriangleIndex(V, T).query(X).distances.mean())
-        res_health = face_health(X, F, (V, T), tolerance=TOLERANCE, **HEALTH)
-        healthy, coverage, violations = res_health.healthy, res_health.coverage, list(res_health.violations)
-        is_conical = max_pl <= TOLERANCE and max_crit <= TOLERANCE and healthy
+    Vn = fr.to(V0)
+    networks: dict = {}
+    tries: list = []
+    t["optimize"] = 0.0
+    extend = boundary_cells == "extend"
+    try:
+        for bulge in HEAL_TRIES:
+            w_try: list[str] = []
+            V, T, net, rb, cand_health = _candidate(Vn, F0, hn, h, umbilic_threshold, boundary_cells, tracer, w_try,
+                                                    t, max_bulge=bulge, networks=networks)
+            w_try[:0] = list(net.warnings) + list(rb.warnings)
+            cand_shape = [line for line in cand_health.violations if "not planar" not in line]
+            if cand_shape:
+                w_try.append("candidate panels not healthy: " + "; ".join(cand_shape))
+            cand = _Cand(rb.V, rb.F, rb.quad_fraction, w_try)
+            if tries and _same(tries[-1][0], cand):  # the looser bound changed nothing
+                continue
+            out = _finished(V, T, cand, optimize, closeness_weight, time_budget - t["optimize"], t)
+            tries.append((cand, out, bulge))
+            if out.healthy or not (optimize and extend and t["optimize"] < time_budget):
+                break
+        if optimize and extend and t["optimize"] < time_budget and not any(o.healthy for _, o, _ in tries):
+            fb = _fields_candidate(V, T, hn, "the curvature network's candidates did not give healthy panels after "
+                                             "the conical optimization (" + "; ".join(tries[0][1].violations) + ")")
+            if fb is not None:
+                tries.append((fb, _finished(V, T, fb, optimize, closeness_weight, time_budget - t["optimize"], t),
+                              None))
+    except InputError as exc:  # umbilic almost everywhere (every direction is principal), or folding everywhere
+        if not (extend and exc.input_name == "mesh" and exc.detail.startswith((UMBILIC_REFUSAL, FOLD_REFUSAL))):
+            raise
+        V, T, net = Vn, (F0 if F0.shape[1] == 3 else triangulate(F0)[0]), None
+        fb = _fields_candidate(V, T, hn, exc.detail)
+        if fb is None:
+            raise
+        tries.append((fb, _finished(V, T, fb, optimize, closeness_weight, time_budget, t), None))
+    # the first healthy try, else the one covering the surface with the smallest share of unhealthy faces
+    k = min(range(len(tries)), key=lambda i: (not tries[i][1].healthy,
+                                              tries[i][1].coverage < HEALTH["min_coverage"],
+                                              tries[i][1].bad_faces / max(len(tries[i][1].F), 1), i))
+    cand, out, bulge = tries[k]
+    warnings = list(cand.warnings) + list(out.warnings)
+    if k > 0 and bulge is not None:
+        warnings.append(f"the curvature network's cells healed to bulge at most {HEAL_TRIES[0]:g} × the median edge "
+                        "did not give healthy panels after the conical optimization ("
+                        + "; ".join(tries[0][1].violations) + f"); the cells were healed again with bulges up to "
+                        f"{bulge:g} × the median edge")
+    err = principal_angle_error(cand.V, cand.F, V, T, net if net is not None else principal_field(V, T))
+    X, F = out.X, out.F
+    max_pl, max_crit, max_dev, close = out.max_planarity, out.max_criterion, out.max_deviation, out.closeness
+    healthy, coverage, violations, is_conical = out.healthy, out.coverage, list(out.violations), out.is_conical
     L = _mean_edge(X, F)
     t3 = time.perf_counter()
     dn = d / fr.scale
@@ -294,14 +421,14 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     if not healthy and not any(w.startswith("panels not healthy") for w in warnings):
         warnings.append("panels not healthy: " + "; ".join(violations))
     t["total"] = time.perf_counter() - t0
-    Vc = fr.back(rb.V)
-    Xb = Vc if X is rb.V else fr.back(X)
+    Vc = fr.back(cand.V)
+    Xb = Vc if X is cand.V else fr.back(X)
     return CurvaturePipelineResult(
-        candidate=(Vc, rb.F),
-        quad_fraction=rb.quad_fraction,
+        candidate=(Vc, cand.F),
+        quad_fraction=cand.quad_fraction,
         mean_angle_error=err.mean_away_from_umbilics,
-        candidate_max_planarity=cand_pl,
-        candidate_max_criterion=cand_crit,
+        candidate_max_planarity=_max_planarity(cand.V, cand.F),
+        candidate_max_criterion=_max_criterion(cand.V, cand.F),
         optimized=(Xb, F),
         max_planarity=max_pl,
         max_criterion=max_crit,
@@ -313,8 +440,8 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
         max_offset_error=max_off,
         max_axis_coplanarity=cop,
         node_axes=fr.back(axes),
-        lines_1=[fr.back(q) for q in net.lines_1],
-        lines_2=[fr.back(q) for q in net.lines_2],
+        lines_1=[fr.back(q) for q in net.lines_1] if net is not None else [],
+        lines_2=[fr.back(q) for q in net.lines_2] if net is not None else [],
         healthy=bool(healthy),
         coverage=float(coverage),
         violations=violations,
@@ -357,11 +484,14 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     offset : float
         Distance of the face offset in model units (0: no offset; the node axes are then one edge long).
     umbilic_threshold : float
-        Curvature anisotropy below which a region is umbilic and skipped by the network.
+        Curvature anisotropy below which a region is umbilic: every direction is principal there, and the network
+        crosses it along the smoothest continuation of the principal directions around it.
     boundary_cells : str
         ``"extend"``: the panels reach the design boundary (boundary cells kept, short edges collapsed, flat corners
-        and holes split, so the panels are healthy and cover the surface); ``"trim"``: boundary triangles/pentagons
-        dropped (nearly all quads, up to one panel short of the boundary); ``"keep"``: kept as traced.
+        and holes split, bulging cells split, so the panels are healthy and cover the surface; when they still are
+        not after the optimization, the cells are healed again with fewer splits, then a fields candidate on the
+        principal directions is tried, and a warning says so); ``"trim"``: boundary triangles/pentagons dropped
+        (nearly all quads, up to one panel short of the boundary); ``"keep"``: kept as traced.
     closeness_weight : float
         Weight of the pull to the design surface during the optimization.
     time_budget : float
@@ -370,7 +500,8 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     Returns
     -------
     candidate : Mesh
-        The quad-dominant mesh rebuilt from the curvature network (on the surface).
+        The quad-dominant mesh rebuilt from the curvature network (on the surface), or the fields candidate it fell
+        back to (the warnings say so).
     quad_fraction : float
         Fraction of the candidate's faces that are quads.
     mean_angle_error : float
@@ -402,7 +533,7 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     node_axes : Lines
         Node axis of every vertex (vertex → offset vertex, or one edge long).
     lines_1 : Curves
-        Lines of maximal curvature.
+        Lines of maximal curvature (none on a surface umbilic almost everywhere).
     lines_2 : Curves
         Lines of minimal curvature.
     healthy : bool
@@ -418,8 +549,10 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     MeshError
         Malformed mesh, no boundary or not a topological disk (named ``mesh``).
     InputError
-        Non-positive panel size, bad options, a surface umbilic almost everywhere, a curvature network that folds
-        (umbilics or flat points) at the panel size and at 1.5 and 2 times it (named ``mesh``).
+        Non-positive panel size, bad options; a design surface that crosses itself (named ``mesh``); with
+        ``boundary_cells`` "trim" or "keep" also a surface umbilic almost everywhere or a curvature network that
+        folds at the panel size and at 1.5 and 2 times it (named ``mesh``; "extend" falls back to a fields
+        candidate there).
 
     Notes
     -----

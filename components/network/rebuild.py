@@ -21,7 +21,12 @@ A curvature-line network (two families of polylines traced on a triangle mesh, s
    coordinates: the candidate lies on the input surface.
 6. **Healing** (``boundary_cells="extend"``, the strategy's default): the boundary cells and the larger cells are kept and the
    cell complex is healed in the plane (:mod:`components.network.healing`), so the panels reach the design boundary
-   with no short edge, flat, sharp or reflex corner, tiny cell or hole.
+   with no short edge, flat, sharp or reflex corner, tiny cell or hole; cells under which the surface bulges more
+   than ``max_bulge`` × the median edge from their corners' plane are split in two (a flat panel over them would
+   leave their middle far from the design surface).
+
+Boundary corners are taken at the scale of a panel (the turn over a quarter and three quarters of a panel on both
+sides): the teeth of a boundary cut along a mesh's triangles make no corner nodes.
 
 Array-level functions: :func:`plane_map`, :func:`network_to_plane`, :func:`network_crossings`,
 :func:`rebuild_from_network`. The published component :func:`quad_rebuild` lives here too (it traces the network
@@ -67,6 +72,7 @@ __all__ = [
 
 PLANE_MAPS = ("lscm", "disk")
 BOUNDARY_CELLS = ("extend", "trim", "keep")
+MAX_BULGE = 0.12  # × median edge: healed cells under which the surface bulges more are split (coverage: 0.25)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -546,8 +552,31 @@ class _Nodes(NamedTuple):
     trimmed: int  # naked ends (off the boundary) after a crossing: their piece beyond it is left out
 
 
-def _network_nodes(fam, bnd, crossings, eps_b, corner_angle) -> _Nodes:
-    """Crossings, line ends on the boundary and boundary corners (turns sharper than ``corner_angle`` degrees)."""
+def _boundary_corners(bnd, corner_angle, window) -> np.ndarray:
+    """Boundary vertices that are corners at the scale of ``window`` (plane units, about a panel): the boundary
+    turns by more than ``corner_angle`` degrees there over a quarter and over three quarters of the window on both
+    sides, and by most within three quarters of the window. A boundary with small teeth (a mesh cut along its
+    triangles) has no corner at the teeth; a smooth turn spread over a panel is no corner either."""
+    P0 = bnd.P
+    s = bnd.cum[:-1]
+    turn = np.full(len(P0), np.inf)
+    for w in (0.25 * window, 0.75 * window):
+        a1 = P0 - bnd.point(s - w)
+        a2 = bnd.point(s + w) - P0
+        turn = np.minimum(turn, np.abs(np.arctan2(_cross2(a1, a2), np.einsum("ij,ij->i", a1, a2))))
+    out = []
+    for k in np.nonzero(turn > math.radians(corner_angle))[0]:
+        d = np.abs(s - s[k])
+        near = np.nonzero(np.minimum(d, bnd.total - d) < 0.75 * window)[0]
+        best = near[turn[near] == turn[near].max()]
+        if k == best.min():
+            out.append(k)
+    return np.array(out, np.int64)
+
+
+def _network_nodes(fam, bnd, crossings, eps_b, corner_angle, window) -> _Nodes:
+    """Crossings, line ends on the boundary and boundary corners (turns sharper than ``corner_angle`` degrees at
+    the scale ``window``, :func:`_boundary_corners`)."""
     ia, sa, ib, sb, P = crossings
     node_uv = [P]
     node_kind = [np.zeros(len(P), np.int64)]
@@ -571,10 +600,7 @@ def _network_nodes(fam, bnd, crossings, eps_b, corner_angle) -> _Nodes:
                 elif per_line[f][i]:
                     trimmed += 1
     P0 = bnd.P
-    a_in = P0 - np.roll(P0, 1, axis=0)
-    a_out = np.roll(P0, -1, axis=0) - P0
-    turn = np.abs(np.arctan2(_cross2(a_in, a_out), np.einsum("ij,ij->i", a_in, a_out)))
-    for k in np.nonzero(turn > math.radians(corner_angle))[0]:
+    for k in _boundary_corners(bnd, corner_angle, window):
         node_uv.append(P0[k:k + 1])
         node_kind.append(np.array([NODE_CORNER]))
         bnodes.append((bnd.cum[k], nn))
@@ -710,7 +736,7 @@ def _arrangement_faces(nodes: _Nodes, edges, polys, efam, X, merge_tol, max_face
     return faces, big if fill else [], kind, dropped
 
 
-def _healed(faces, nuv, X, kind, V, T, UV, bnd, warnings):
+def _healed(faces, nuv, X, kind, V, T, UV, bnd, warnings, max_bulge):
     """Heal the cells (:func:`components.network.healing.healed_cells`): ``(faces, uv, X, kind)``; appends what
     was done to ``warnings``."""
     loc = _Locator(UV, T)
@@ -719,7 +745,7 @@ def _healed(faces, nuv, X, kind, V, T, UV, bnd, warnings):
         f, B = loc.locate(P)
         return np.einsum("pk,pkj->pj", B, V[T[f]])
 
-    h = healed_cells(faces, nuv, X, kind, lift, lambda P: bnd.project(P)[0])
+    h = healed_cells(faces, nuv, X, kind, lift, lambda P: bnd.project(P)[0], max_bulge=max_bulge)
     done = []
     if h.collapsed:
         done.append(f"{h.collapsed} short edge(s) or sharp/tiny cell(s) collapsed")
@@ -728,6 +754,9 @@ def _healed(faces, nuv, X, kind, V, T, UV, bnd, warnings):
     if h.split:
         done.append(f"{h.split} cell(s) with flat corners or too many corners (T-junctions, holes of the network) "
                     "split along diagonals")
+    if h.refined:
+        done.append(f"{h.refined} cell(s) under which the surface bulges more than {max_bulge:g} × the median edge "
+                    "split in two")
     if done:
         warnings.append("boundary and irregular cells extended to the design boundary and healed: " + "; ".join(done))
     if h.left_open:
@@ -747,7 +776,8 @@ def _boundary_edges(faces):
 
 def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap: float = 1.0,
                          merge: float = 0.1, max_face_size: int = 6, corner_angle: float = 35.0,
-                         plane: str = "lscm", boundary_cells: str = "trim") -> Rebuild:
+                         plane: str = "lscm", boundary_cells: str = "trim",
+                         max_bulge: float | None = MAX_BULGE) -> Rebuild:
     """Rebuild a quad-dominant mesh from a two-family line network on a disk-like triangle mesh.
 
     Parameters
@@ -771,7 +801,9 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     max_face_size : int
         Cells with more corners are dropped (holes, reported).
     corner_angle : float
-        Boundary turns sharper than this (degrees, in the plane) become nodes (corners of the candidate).
+        Boundary turns sharper than this (degrees, in the plane, measured over a quarter and three quarters of a
+        panel on both sides: teeth of a boundary cut along the mesh's triangles are no corners) become nodes
+        (corners of the candidate).
     plane : {"lscm", "disk"}
         Plane map used when ``UV`` is absent.
     boundary_cells : {"extend", "trim", "keep"}
@@ -783,6 +815,10 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
         boundary cuts a cell's corner) are dropped, so the candidate is nearly all quads, every line edge keeps its
         direction and no boundary vertex has four faces; ``"keep"``: they are kept as traced (the candidate covers
         the surface up to its boundary, with triangles and pentagons there).
+    max_bulge : float, optional
+        With ``"extend"``: healed cells under which the surface bulges more than this × the median edge from the
+        plane of their corners are split in two (a cell larger than the surface's curvature allows leaves its
+        middle far from a flat panel); ``None``: off.
 
     Returns
     -------
@@ -816,7 +852,7 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     crossings = network_crossings(*fam)
     if len(crossings[4]) == 0:
         raise MeshError("mesh", "the two line families do not cross: no quad can be formed (panel size too large?)")
-    nodes = _network_nodes(fam, bnd, crossings, eps_b, corner_angle)
+    nodes = _network_nodes(fam, bnd, crossings, eps_b, corner_angle, h_uv)
     edges, polys, efam = _network_edges(fam, nodes, bnd)
     X, _ = uv_to_surface(V, T, UV, nodes.uv)
     extend = boundary_cells == "extend"
@@ -824,7 +860,9 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
                                                    fill=extend)
     nuv = nodes.uv
     if extend:
-        faces, nuv, X, kind = _healed(faces + big, nuv, X, kind, V, T, UV, bnd, warnings)
+        if max_bulge is not None:
+            max_bulge = check_number(max_bulge, "max_bulge", 0, above=True)
+        faces, nuv, X, kind = _healed(faces + big, nuv, X, kind, V, T, UV, bnd, warnings, max_bulge)
     elif boundary_cells == "trim":
         faces, ntri, npen = _trim_boundary_cells(faces, kind, _boundary_edges(faces))
         if ntri or npen:

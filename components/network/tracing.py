@@ -16,11 +16,15 @@ second order and their limit is a conical mesh (Liu et al. 2006). This module
    swapping mixed both families into one set and left crossings without nodes). Line ends stopped by the
    Jobard–Lefer separation test (half a panel) are then run on until a quarter panel from the next line
    (``EXTEND_RATIO``), which removes most interior T-junctions where lines converge, and
-4. **skips** the umbilic regions: every polyline is cut where it enters one, pieces shorter than half a panel are
-   dropped. What was done is said in ``warnings``; a surface that is umbilic almost everywhere (a sphere or plane
-   patch) is refused with a clear error, since it has no curvature network.
+4. **skips** the umbilic regions (``umbilic="skip"``, the default): every polyline is cut where it enters one,
+   pieces shorter than half a panel are dropped; or **fills** them (``umbilic="fill"``, the strategy's choice): every
+   direction is principal on an umbilic or flat region, so the field there is the smoothest line field continuing
+   the principal directions around it (:func:`filled_directions`) and the lines run on through it, leaving no hole
+   in the network. What was done is said in ``warnings``; a surface that is umbilic almost everywhere (a sphere or
+   plane patch) is refused with a clear error, since it has no curvature network to continue.
 
-Array-level: :func:`principal_field`, :func:`principal_network`, :func:`principal_angle_error`. Published:
+Array-level: :func:`principal_field`, :func:`filled_directions`, :func:`principal_network`,
+:func:`principal_angle_error`. Published:
 :func:`curvature_network`.
 
 References
@@ -36,13 +40,16 @@ import logging
 from typing import Callable, NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
 
-from components.core.checks import check_int, check_mesh, check_number
+from components.core.checks import check_choice, check_int, check_mesh, check_number
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Integers, Mesh
+from components.fields.frames import dual_graph, face_frames, from_complex, to_complex
 from components.fields.streamlines import evenly_spaced_streamlines
 
 log = logging.getLogger(__name__)
@@ -53,12 +60,15 @@ __all__ = [
     "Network",
     "PrincipalField",
     "curvature_network",
+    "filled_directions",
     "network_for_mesh",
     "principal_angle_error",
     "principal_field",
     "principal_network",
 ]
 
+UMBILIC_MODES = ("skip", "fill")
+UMBILIC_REFUSAL = "the surface is umbilic or flat almost everywhere"  # how the refusal below starts
 UMBILIC_ONLY = 0.9  # refuse surfaces whose umbilic area share is above this
 EXTEND_RATIO = 0.25  # separation-stopped line ends continue until a quarter panel from the next line
 
@@ -164,6 +174,68 @@ def _tracer_options(tracer, V, T, fld, h) -> dict:
     return out
 
 
+def filled_directions(V: np.ndarray, T: np.ndarray, fld: PrincipalField) -> tuple[np.ndarray, np.ndarray]:
+    """Principal directions with the umbilic regions filled: ``(U, W)`` per triangle, ``U = PD1`` and ``W = PD2``
+    where the surface is anisotropic, the smoothest line field that meets them (harmonic in the Levi-Civita
+    connection, a line field is a direction up to sign) in the umbilic triangles, ``W = n × U``.
+
+    On an umbilic or flat region every tangent direction is principal (and every orthogonal net conjugate), so lines
+    of the filled field are curvature lines there too; the fill only chooses the smoothest continuation of the
+    network across the region. A region with no anisotropic triangle in its component keeps its (noisy) principal
+    directions.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertex positions.
+    T : (t, 3) int64
+        Triangles, consistently oriented, edge-manifold.
+    fld : PrincipalField
+        The principal field and its umbilic mask (:func:`principal_field`).
+
+    Returns
+    -------
+    U, W : (t, 3) float64
+        Unit tangent directions per triangle, orthogonal to each other.
+
+    Example
+    -------
+    >>> from components.surfaces.samples import sample_mesh
+    >>> V, T, _ = sample_mesh("dome", 16)
+    >>> fld = principal_field(V, T)
+    >>> U, W = filled_directions(V, T, fld)
+    >>> bool(np.allclose(U[~fld.umbilic], fld.PD1[~fld.umbilic])), bool(np.allclose(np.sum(U * W, axis=1), 0.0))
+    (True, True)
+    """
+    um = np.asarray(fld.umbilic, bool)
+    U, W = fld.PD1.copy(), fld.PD2.copy()
+    if not um.any() or um.all():
+        return U, W
+    fr = face_frames(V, T)
+    dg = dual_graph(V, T, fr)
+    m = len(T)
+    z = to_complex(fld.PD1, fr)
+    z = (z / np.maximum(np.abs(z), 1e-300)) ** 2  # a line: the direction's angle doubled
+    rho = np.exp(2j * dg.kappa)
+    w = dg.weight.astype(complex)
+    L = sp.csr_matrix((np.concatenate([w, w, -w * rho, -w * np.conj(rho)]),
+                       (np.concatenate([dg.f, dg.g, dg.g, dg.f]), np.concatenate([dg.f, dg.g, dg.f, dg.g]))),
+                      shape=(m, m))
+    free = np.flatnonzero(um)
+    fixed = np.flatnonzero(~um)
+    A = L[free][:, free].tocsc()
+    b = -(L[free][:, fixed] @ z[fixed])
+    # components of the free faces not touching a fixed one have a singular block: a tiny shift keeps them at 0
+    A = A + sp.identity(len(free), format="csc") * (1e-9 * float(np.abs(A.diagonal()).mean() or 1.0))
+    zf = np.asarray(spsolve(A, b)).reshape(-1)
+    ok = np.abs(zf) > 1e-6
+    d = np.sqrt(zf[ok] / np.abs(zf[ok]))
+    Uf = from_complex(d, fr, free[ok])
+    U[free[ok]] = Uf
+    W[free[ok]] = np.cross(fr.n[free[ok]], Uf)
+    return U, W
+
+
 def _cut_umbilic(V, T, lines, umbilic, min_length):
     """Split polylines where they run through umbilic triangles; drop pieces shorter than ``min_length``."""
     if not umbilic.any() or not lines:
@@ -188,8 +260,8 @@ def _cut_umbilic(V, T, lines, umbilic, min_length):
 
 
 def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_threshold: float = 0.05,
-                      radius: int = 2, tracer: Callable | None = None) -> Network:
-    """Both families of principal curvature lines at an even spacing, umbilic regions skipped.
+                      radius: int = 2, tracer: Callable | None = None, umbilic: str = "skip") -> Network:
+    """Both families of principal curvature lines at an even spacing, umbilic regions skipped (or filled).
 
     Parameters
     ----------
@@ -206,6 +278,10 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     tracer : callable, optional
         ``tracer(V, T, U, W, family, separation, [seeds=, min_length=]) -> list of (k, 3) polylines``; default the
         project's :func:`components.fields.streamlines.evenly_spaced_streamlines`.
+    umbilic : {"skip", "fill"}
+        ``"skip"``: no line is seeded in an umbilic region and lines are cut where they enter one; ``"fill"``: the
+        umbilic regions get the smoothest continuation of the principal directions around them
+        (:func:`filled_directions`, every direction is principal there) and the lines run on through them.
 
     Returns
     -------
@@ -219,25 +295,32 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     V = np.asarray(V, np.float64)
     T = np.asarray(T, np.int64)
     h = check_number(panel_size, "panel_size", 0, above=True)
+    check_choice(umbilic, "umbilic", UMBILIC_MODES)
     warnings: list[str] = []
     fld = principal_field(V, T, umbilic_threshold=umbilic_threshold, radius=radius)
     area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
     frac = float(area[fld.umbilic].sum() / max(area.sum(), 1e-300))
     if frac > UMBILIC_ONLY:
-        raise InputError("mesh", f"the surface is umbilic or flat almost everywhere ({100 * frac:.0f}% of its area has "
+        raise InputError("mesh", f"{UMBILIC_REFUSAL} ({100 * frac:.0f}% of its area has "
                                  f"curvature anisotropy below {umbilic_threshold:g}; a sphere or plane patch): its "
                                  "principal directions are undefined, so it has no curvature network")
     if tracer is None:
         tracer = evenly_spaced_streamlines
-    U, W = fld.PD1, fld.PD2
+    fill = umbilic == "fill" and frac > 0
+    U, W = filled_directions(V, T, fld) if fill else (fld.PD1, fld.PD2)
     kwargs = _tracer_options(tracer, V, T, fld, h)
     fams, ncut = [], 0
     for family in (0, 1):
         lines = _polylines(tracer(V, T, U, W, family, h, **kwargs))
-        lines, c = _cut_umbilic(V, T, lines, fld.umbilic, 0.5 * h)
-        ncut += c
+        if not fill:
+            lines, c = _cut_umbilic(V, T, lines, fld.umbilic, 0.5 * h)
+            ncut += c
         fams.append(lines)
-    if frac > 0:
+    if fill:
+        warnings.append(f"umbilic regions ({100 * frac:.1f}% of the area, anisotropy < {umbilic_threshold:g}; every "
+                        "direction is principal there) were crossed along the smoothest continuation of the "
+                        "principal directions around them")
+    elif frac > 0:
         warnings.append(f"umbilic regions ({100 * frac:.1f}% of the area, anisotropy < {umbilic_threshold:g}) were "
                         f"skipped: no lines were seeded there and {ncut} line(s) were cut where they entered them")
     if not fams[0] or not fams[1]:
@@ -246,7 +329,8 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     return Network(fams[0], fams[1], fld, frac, ncut, warnings)
 
 
-def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: int = 2, tracer=None):
+def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: int = 2, tracer=None,
+                     umbilic: str = "skip"):
     """Validate a ``(V, F)`` surface (triangulated) and trace its network: ``(V, T, Network)``."""
     V, F = check_mesh(mesh, "mesh")
     check_number(panel_size, "panel_size", 0, above=True)
@@ -257,7 +341,7 @@ def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: 
     if not boundary_loops(T):
         raise MeshError("mesh", "the surface is closed (no boundary): the curvature network is rebuilt in a disk "
                                 "parametrization, so cut the surface open first")
-    return V, T, principal_network(V, T, panel_size, umbilic_threshold, radius, tracer)
+    return V, T, principal_network(V, T, panel_size, umbilic_threshold, radius, tracer, umbilic)
 
 
 class AngleError(NamedTuple):
