@@ -55,7 +55,7 @@ from components.core.checks import check_choice, validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, triangulate
 from components.fields.pipeline import pq_from_conjugate_field
-from components.metrics.health import DEFECT_BITS, PanelHealth, face_health
+from components.metrics.health import PanelHealth, face_health, shape_healthy
 from components.metrics.quality import metrics_report
 from components.network.pipeline import pq_from_curvature_network
 from components.subdivision.pipeline import subdivision_pq
@@ -94,7 +94,6 @@ STATUSES = (STATUS_OK, STATUS_UNHEALTHY, STATUS_TOLERANCE, STATUS_FAILED)
 DEFAULT_TOLERANCE = 1e-4
 #: the panel-health bounds of the verdict (:func:`components.metrics.health.face_health`'s defaults, spelled out)
 HEALTH_BOUNDS = {"min_edge_ratio": 0.2, "min_angle": 20.0, "min_area_ratio": 0.1, "min_coverage": 0.85}
-_SHAPE_DEFECTS = ~DEFECT_BITS["nonplanar"]  # every defect bit but planarity
 
 
 class StrategyResult(NamedTuple):
@@ -323,12 +322,6 @@ def panel_verdict(mesh, reference, tolerance: float, name: str) -> PanelHealth:
     """:func:`components.metrics.health.face_health` of ``mesh`` against the design surface ``reference``, with the
     strategy's planarity ``tolerance`` and :data:`HEALTH_BOUNDS`."""
     return face_health(mesh[0], mesh[1], reference, tolerance=tolerance, **HEALTH_BOUNDS, name=name)
-
-
-def shape_healthy(h: PanelHealth) -> bool:
-    """No defect but planarity, and the coverage reached (when measured)."""
-    covered = bool(np.isnan(h.coverage) or h.coverage >= HEALTH_BOUNDS["min_coverage"])
-    return bool(not np.any(h.face_defects & _SHAPE_DEFECTS)) and covered
 
 
 def judge(h: PanelHealth, tolerance: float) -> Verdict:

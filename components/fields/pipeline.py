@@ -27,7 +27,7 @@ from components.core.checks import check_number
 from components.core.errors import InputError
 from components.core.types import Integers, Mesh, Texts, Vectors
 from components.fields.candidate import candidate_mesh, candidate_quality
-from components.metrics.health import face_health
+from components.metrics.health import face_health, shape_healthy
 from components.planarize.planarizer import planarize_mesh
 
 log = logging.getLogger(__name__)
@@ -136,8 +136,9 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     healthy : bool
         Whether the planarized panels (the candidate's when ``planarize`` is off) are fabricable: every corner
         between 20° and 160°, every edge over 0.2 × the median edge, every panel over 0.1 × the median panel area,
-        convex, not folded, flipped or crossing, at least 85% of the input surface covered, and (after
-        planarization) every panel planar to ``tolerance``.
+        convex, not folded, flipped or crossing, at least 85% of the input surface covered. Planarity is the
+        tolerance's, not health's: a healthy result that misses the tolerance says how far in ``violations`` and
+        the warnings (as ``planarize`` does).
     coverage : float
         Share of the input surface's area the panels cover, 0..1.
     violations : Texts
@@ -191,20 +192,21 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     if q.quad_ratio < 0.95:
         warnings.append(f"only {100 * q.quad_ratio:.1f}% of the candidate's faces are quads")
     health = face_health(Vp, Fp, surface, tolerance=tol if planarize else 1e300, name="planarized")
-    warnings += _health_warnings(health, cand, planarized is not None)
+    healthy = shape_healthy(health)
+    warnings += _health_warnings(health, healthy, cand, planarized is not None)
     return PQResult((V, F), q.max_planarity, q.mean_planarity, (Vp, Fp), pmax, pmean, cmean, cmax, q.quad_ratio,
                     q.edge_length_within, cand.singularities, cand.mean_angle_error, cand.timings["field"],
-                    cand.timings["parametrize"], cand.timings["extract"], tp, bool(health.healthy),
+                    cand.timings["parametrize"], cand.timings["extract"], tp, bool(healthy),
                     float(health.coverage), list(health.violations), warnings)
 
 
-def _health_warnings(health, cand, planarized: bool) -> list:
+def _health_warnings(health, healthy: bool, cand, planarized: bool) -> list:
     """The warnings that say why a result is not fabricable (the candidate's health first when it was not)."""
     out = []
     if cand.health is not None and not cand.health.healthy:
         out.append(f"the candidate has panels that could not be repaired ({len(cand.health.violations)} "
                    f"violation(s)): " + "; ".join(cand.health.violations))
-    if not health.healthy:
+    if not healthy:
         what = "planarized panels" if planarized else "candidate's panels (not planarized)"
         bad = int(np.count_nonzero(health.face_defects))
         out.append(f"the {what} are not healthy: {bad} of {len(health.face_defects)} panels with defects, "

@@ -65,7 +65,7 @@ from components.core.types import Integers, Mesh, Texts
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DEFECTS", "DEFECT_BITS", "PanelHealth", "face_health", "PanelHealthResult", "panel_health"]
+__all__ = ["DEFECTS", "DEFECT_BITS", "PanelHealth", "face_health", "shape_healthy", "PanelHealthResult", "panel_health"]
 
 #: the defect names, in bit order (bit ``1 << i`` of ``face_defects`` is ``DEFECTS[i]``)
 DEFECTS = ("nonplanar", "short_edge", "degenerate", "corner", "nonconvex", "small", "intersecting", "folded",
@@ -736,6 +736,21 @@ def _subdivision_centroids(s: int) -> np.ndarray:
 
 # ----------------------------------------------------------------------------------------------
 # published component
+
+
+def shape_healthy(h: PanelHealth, min_coverage: float = 0.85) -> bool:
+    """Healthy but for planarity (which is the tolerance's): no other defect, and ``min_coverage`` of the reference
+    covered (when measured).
+
+    >>> from components.core.mesh import quad_grid
+    >>> V, Q = quad_grid(3, 3)
+    >>> V[4, 2] = 0.3  # a bump: four faces not planar, nothing else wrong
+    >>> h = face_health(V, Q, tolerance=1e-4)
+    >>> h.healthy, shape_healthy(h)
+    (False, True)
+    """
+    covered = bool(np.isnan(h.coverage) or h.coverage >= min_coverage)
+    return bool(not np.any(h.face_defects & ~DEFECT_BITS["nonplanar"])) and covered
 
 
 class PanelHealthResult(NamedTuple):

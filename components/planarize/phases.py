@@ -9,6 +9,13 @@ tolerance). The best state seen is kept: the returned one is never worse than th
 the tolerance was met once, the state that met it with the smallest soft objective wins over a later one that
 does not.
 
+When the panel-health guard holds the restore phase (accepted steps under a quarter of the Gauss-Newton step, or
+no healthy step at all), the closeness stiffness is relaxed (÷3 at a time, to 1/100 of the given one), then, where
+the caller allows it (``relaxed_guard``), the guard's share of the input's own values: a stiff closeness metric
+leaves the planarity correction only the directions within the surface, where it shears the net into the guard.
+The optimize phase runs at the full stiffness again and pulls the planar mesh back toward the surface; an optimize
+step blocked by the planarity band is followed by a polish and another optimize phase (up to ``_OPT_ROUNDS``).
+
 Example
 -------
 >>> import time
@@ -44,6 +51,7 @@ _OPT_DECREASE = 0.01  # optimize phase ends when an iteration lowers the soft ob
 _OPT_MIN_MOVE = 0.01  # ... or promises less than moving every vertex this far (mean edges) would (½ d² each)
 _STALL = 10  # iterations without improvement before giving up
 _SLOW = 0.01  # ... or without the worst face improving by this fraction
+_OPT_ROUNDS = 3  # optimize phases (each followed by a polish) when an optimize step is blocked by the band
 _HELD_BETA = 0.25  # restore phase: an accepted step shorter than this fraction of the feasibility step is held
 _HELD_STEPS = 3  # ... this many held steps in a row relax the closeness stiffness
 _RELAX_CLOSENESS = 1.0 / 3.0  # factor of one relaxation
@@ -78,6 +86,8 @@ class Run:
     held: int = 0  # restore steps in a row shorter than ``_HELD_BETA``
     relaxed_to: float = 1.0  # the lowest share of the closeness stiffness the restore phase used
     guard: PanelGuard | None = None  # the guard in force (its relative bounds may be relaxed once)
+    opt_rounds: int = 0  # optimize phases started
+    opt_again: bool = False  # the last optimize phase ended on a blocked step, not on a small gain: polish, go on
 
     def elapsed(self) -> float:
         return time.perf_counter() - self.t0
@@ -133,7 +143,12 @@ def iterate(prob, guard, t0: float) -> Run:
         if run.converged:
             if run.phase == "restore" and opts.optimize_iterations > 0 and run.elapsed() < 0.5 * opts.time_budget:
                 run.phase = "optimize"
+                run.opt_rounds = 1
                 _restore_closeness(prob, run)
+            elif (run.phase == "polish" and run.opt_again and run.opt_its < opts.optimize_iterations
+                  and run.elapsed() < 0.5 * opts.time_budget):
+                run.phase, run.opt_again, run.t_opt = "optimize", False, 1.0
+                run.opt_rounds += 1
             elif run.phase != "optimize":
                 run.stop_reason = "tolerance reached"
                 break
@@ -156,8 +171,9 @@ def iterate(prob, guard, t0: float) -> Run:
             break
         if step.accepted is None:
             run.blocked_by = step.failed
-            if optimize:  # no soft progress left within the tolerance band: polish
-                _to_polish(run)
+            if optimize:  # no soft progress within the tolerance band from here: polish, then optimize again
+                _to_polish(run)  # (the band is measured from the polished state) while rounds remain
+                run.opt_again = run.opt_rounds < _OPT_ROUNDS
                 continue
             if run.sticky.any() and not run.guard_reset:  # the guard rows kept from earlier steps may be what
                 run.sticky[:] = False  # blocks this one: retry once with only the corners the state needs

@@ -68,7 +68,7 @@ from components.planarize.guard import health_bounds, panel_guard
 from components.planarize.inputs import centred_reference, prepared_mesh
 from components.planarize.phases import final_state, iterate
 from components.planarize.problem import OPT_ITERATIONS, checked_options, setup_problem
-from components.planarize.verdict import result_verdict
+from components.planarize.verdict import healthy_backoff, result_verdict
 
 __all__ = ["PlanarizeResult", "planarize", "on_surface", "planarize_mesh"]
 
@@ -227,27 +227,30 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
     final = final_state(run)
     X = final.X * prob.scale + prob.center
     X[prob.fixed] = prep.V[prob.fixed]  # exactly unmoved
-    Fw = prep.F
-    pl = quad_planarity(X, Fw)
-    if ref is not None:
-        d = TriangleIndex(ref[0], triangulate(ref[1])[0], name="reference").query(X).distances
-    else:
-        d = np.linalg.norm(X - prep.V, axis=1)
-    used = np.unique(Fw)
-    ang, ncv_out = prob.frames.shape(X)
-    n_ncv = int(ncv_out[guard.quad_like].sum())
-    min_angle = float(ang.min()) if len(ang) else math.pi
-    # the conical criterion ω1 − ω2 + ω3 − ω4 from the corner angles of the stars
-    stars = prob.stars
-    con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
-    warp = warping_height(X, Fw)
-    verdict = result_verdict(prob, guard, run, X, ref, pl, warp, con, min_angle, n_ncv)
+    m = _measured(prob, guard, run, X, ref)
+    if not m.verdict.healthy:  # back off toward the input, to the healthy state nearest the result (if any)
+        X0 = prob.X0 * prob.scale + prob.center
+        X0[prob.fixed] = prep.V[prob.fixed]
+        back = healthy_backoff(prob, guard, ref, X0, X)
+        if back is not None:
+            X, t = back
+            lost = "; ".join(line for line in m.verdict.violations if "planarity tolerance" not in line)
+            run.converged = False
+            m = _measured(prob, guard, run, X, ref)
+            run.stop_reason += f"; backed off to the last healthy state ({t:.0%} of the way from the input)"
+            m.verdict.warnings.append(
+                f"the most planar state found was not healthy ({lost}); the healthy state {t:.0%} of the way from "
+                f"the input to it was returned: max planarity {m.pl.max():.3g} = "
+                f"{m.pl.max() / opts.tolerance if not opts.use_abs else m.warp.max() / opts.absolute_tolerance:.3g}"
+                f" × the tolerance")
+    pl, d, used, min_angle, n_ncv, con, warp, verdict = m
     if run.relaxed_to < 1.0 and run.opt_its == 0:
         verdict.warnings.append(
             f"closeness: the panel-health guard held the planarization at closeness weight {opts.closeness_weight:g}; "
-            f"planarity was restored at {run.relaxed_to * opts.closeness_weight:.3g} and not optimized back (mean "
-            f"closeness {float(d[used].mean()):.3g}); a larger time_budget lets the optimize phase pull the mesh "
-            f"back toward the surface")
+            + (f"planarity was restored at {run.relaxed_to * opts.closeness_weight:.3g} and not optimized back "
+               f"(mean closeness {float(d[used].mean()):.3g}); a larger time_budget lets the optimize phase pull "
+               "the mesh back toward the surface" if run.converged else
+               f"relaxing it to {run.relaxed_to * opts.closeness_weight:.3g} did not reach the tolerance either"))
     converged = bool(run.converged and verdict.healthy)
     stop_reason = run.stop_reason if converged or not run.converged else f"{run.stop_reason}; panels not healthy"
     fixed_in = prob.fixed if prep.rep is None else prob.fixed[prep.rep]
@@ -263,6 +266,36 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
         history_max_closeness=np.asarray(hist["maxc"]), history_mean_closeness=np.asarray(hist["meanc"]),
         history_time=np.asarray(hist["t"]), healthy=verdict.healthy, coverage=verdict.coverage,
         violations=verdict.violations, warnings=prep.warnings + prob.warnings + verdict.warnings)
+
+
+class _Measures(NamedTuple):
+    pl: np.ndarray  # (m,) planarity
+    d: np.ndarray  # (n,) distance to the reference (or displacement without one)
+    used: np.ndarray  # vertices of faces
+    min_angle: float  # radians
+    n_ncv: int  # non-convex quad-like faces
+    con: float  # largest conical criterion
+    warp: np.ndarray  # (m,) warping height
+    verdict: object  # components.planarize.verdict.Verdict
+
+
+def _measured(prob, guard, run, X, ref) -> _Measures:
+    """What the result reports about ``X`` (model units, centred like ``ref``)."""
+    Fw = prob.F
+    pl = quad_planarity(X, Fw)
+    if ref is not None:
+        d = TriangleIndex(ref[0], triangulate(ref[1])[0], name="reference").query(X).distances
+    else:
+        d = np.linalg.norm(X - prob.V, axis=1)
+    ang, ncv_out = prob.frames.shape(X)
+    n_ncv = int(ncv_out[guard.quad_like].sum())
+    min_angle = float(ang.min()) if len(ang) else math.pi
+    # the conical criterion ω1 − ω2 + ω3 − ω4 from the corner angles of the stars
+    stars = prob.stars
+    con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
+    warp = warping_height(X, Fw)
+    verdict = result_verdict(prob, guard, run, X, ref, pl, warp, con, min_angle, n_ncv)
+    return _Measures(pl, d, np.unique(Fw), min_angle, n_ncv, con, warp, verdict)
 
 
 def _triangles_only(V, F, prep, ref, opts, t0) -> PlanarizeResult:

@@ -13,9 +13,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from components.core.measures import quad_planarity
 from components.metrics.health import face_health
 
-__all__ = ["Verdict", "result_verdict", "planarity_line"]
+__all__ = ["Verdict", "result_verdict", "planarity_line", "healthy_backoff"]
+
+_NO_TOLERANCE = float(np.finfo(np.float64).max)  # planarity is not judged by the back-off
+_BACKOFF_STEPS = 6  # bisection steps of the back-off to the last healthy state (1/64 of the way)
 
 
 class Verdict(NamedTuple):
@@ -56,14 +60,14 @@ def result_verdict(prob, guard, run, X, reference, pl, warp, con, min_angle_out,
     ``min_angle_out``: the smallest corner angle (radians); ``n_ncv``: non-convex quad-like faces.
     """
     opts, bounds = prob.opts, guard.bounds
-    h = face_health(X, prob.F, reference, tolerance=1.000001 * float(pl.max()) if len(pl) else 0.0,
+    h = face_health(X, prob.F, reference, tolerance=_NO_TOLERANCE,  # planarity is the tolerance's (the line below)
                     min_edge_ratio=bounds.min_edge_ratio, min_angle=bounds.min_angle,
                     min_area_ratio=bounds.min_area_ratio, min_coverage=opts.min_coverage)
     line = planarity_line(opts, pl, warp) if not run.converged else ""
     if not run.converged and not line:  # the conical criterion, or a tolerance met only in the score's rounding
         line = f"conical criterion {con:.3g} rad above its tolerance" if prob.conical_on else ""
     violations = ([line] if line else []) + list(h.violations)
-    warnings = [f"planarize: {note}" for note in bounds.notes]
+    warnings = [f"planarize: {note}" for note in bounds.notes if _still_under(note, h, opts)]
     if not run.converged:
         state = "healthy" if h.healthy else "not healthy"
         warnings.append(f"tolerance not reached ({run.stop_reason}): {line or 'see the violations'}; the best "
@@ -84,3 +88,54 @@ def result_verdict(prob, guard, run, X, reference, pl, warp, con, min_angle_out,
         warnings.append(f"non-convex faces increased from {guard.n_nonconvex_in} to {n_ncv}")
     coverage = -1.0 if np.isnan(h.coverage) else float(h.coverage)
     return Verdict(bool(h.healthy), violations, coverage, warnings)
+
+
+def _shape_healthy(prob, guard, reference, X) -> bool:
+    """Healthy at the verdict's thresholds, planarity aside."""
+    b = guard.bounds
+    return bool(face_health(X, prob.F, reference, tolerance=_NO_TOLERANCE, min_edge_ratio=b.min_edge_ratio,
+                            min_angle=b.min_angle, min_area_ratio=b.min_area_ratio,
+                            min_coverage=prob.opts.min_coverage).healthy)
+
+
+def healthy_backoff(prob, guard, reference, X0, X1):
+    """``(X, t)``: the healthy state ``X0 + t (X1 − X0)`` with the smallest max planarity, or ``None`` when the input
+    ``X0`` is not healthy itself (then nothing healthier is on the way).
+
+    The guard keeps every accepted step's panels healthy, but not the coverage of the reference (a global measure:
+    a planar net pulled off a doubly curved surface by a relaxed closeness leaves parts of it uncovered) nor, at the
+    last bit, every threshold of the verdict. The largest healthy ``t`` is found by bisection
+    (:data:`_BACKOFF_STEPS` steps).
+    """
+    if not _shape_healthy(prob, guard, reference, X0):
+        return None
+    best = (float(_max_planarity(X0, prob.F)), 0.0)
+    lo, hi = 0.0, 1.0
+    for _ in range(_BACKOFF_STEPS):
+        t = 0.5 * (lo + hi)
+        X = X0 + t * (X1 - X0)
+        if _shape_healthy(prob, guard, reference, X):
+            lo = t
+            best = min(best, (float(_max_planarity(X, prob.F)), t))
+        else:
+            hi = t
+    t = best[1]
+    return X0 + t * (X1 - X0), t
+
+
+def _max_planarity(X, F) -> float:
+    """The largest scale-free planarity of the faces (0 without faces)."""
+    pl = quad_planarity(X, F)
+    return float(pl.max()) if len(pl) else 0.0
+
+
+def _still_under(note: str, h, opts) -> bool:
+    """Whether a note of :func:`components.planarize.guard.health_bounds` (the input was already under a bound, so
+    the verdict allows less) still applies to the result ``h``: the solver lifts such items toward the bound."""
+    if note.startswith("the input already has corners"):
+        return bool(h.worst_corner < opts.min_angle or h.worst_corner > 180.0 - opts.min_angle)
+    if note.startswith("the input already has edges"):
+        return bool(h.shortest_edge_ratio < opts.min_edge_ratio)
+    if note.startswith("the input already has faces"):
+        return bool(len(h.area_ratio) and h.area_ratio.min() < opts.min_area_ratio)
+    return True

@@ -39,7 +39,7 @@ from components.core.measures import corner_angles, nonconvex_faces, quad_planar
 from components.core.mesh import edge_topology, triangulate
 from components.core.proximity import TriangleIndex
 from components.core.types import Mesh, Texts
-from components.metrics.health import DEFECT_BITS, PanelHealth, face_health
+from components.metrics.health import DEFECT_BITS, PanelHealth, face_health, shape_healthy
 from components.planarize.planarizer import planarize_mesh
 from components.subdivision.coarse import check_disk_surface, coarse_net, ogrid_size
 from components.subdivision.pull import pulled_subdivision, pulled_vertices
@@ -56,6 +56,10 @@ HEALTH_BOUNDS = {"min_edge_ratio": 0.2, "min_angle": 20.0, "min_area_ratio": 0.1
 #: steps of the bisection for the healthy state between the candidate and the planarized mesh (1/64 of the way)
 _BACKOFF_STEPS = 6
 _SHAPE_DEFECTS = ~DEFECT_BITS["nonplanar"]  # every defect bit but planarity
+#: defects of a candidate that planarization cannot undo (it only keeps them from getting worse)
+_FOLD_DEFECTS = sum(DEFECT_BITS[d] for d in ("intersecting", "folded", "flipped", "nonconvex", "corner"))
+_LAYOUTS = ("ogrid", "aligned", "grid")  # the automatic layouts tried when the first candidate folds
+_FINER = (1.5, 2.0)  # ... then these × the coarse face count
 #: the planarizer's ``relaxed_guard``: when its guard holds the net after the closeness stiffness was relaxed, an
 #: edge may shrink below half its input length (and a corner, a turn or a fold opening below half the input's
 #: worst) as long as the fabrication bounds hold (inspired_mesh's net stalls at 0.012 otherwise, edges held at
@@ -94,6 +98,83 @@ def _guard_options() -> dict:
     return {k: v for k, v in HEALTH_BOUNDS.items() if k in params}
 
 
+class _Candidate(NamedTuple):
+    """A subdivided, pulled candidate and how it was made."""
+
+    coarse: tuple  # (Vc, Fc) the coarse net
+    X: np.ndarray  # the candidate's vertices (on the surface)
+    Q: np.ndarray  # its quads
+    layout: str  # the coarse net's layout ("given" for a user's net)
+    faces: int  # the coarse face count asked for
+    pulled: object  # the pull's result (distances, warnings)
+    warnings: list
+
+
+def _candidate(V, T, given, faces, layout, levels, max_faces, spread_boundary, timings) -> _Candidate:
+    """Coarse net (``given`` or automatic) → Catmull-Clark → pulled onto the surface ``(V, T)``."""
+    warnings: list[str] = []
+    t = time.perf_counter()
+    if given is None:
+        center, size = _frame(V)
+        net = coarse_net((V - center) / size, T, faces=faces, layout=layout, levels=levels)
+        Vc, Fc, used = net.V * size + center, net.Q, net.layout
+        warnings += net.warnings
+    else:
+        (Vc, Fc), used = given, "given"
+    timings["coarse"] = timings.get("coarse", 0.0) + time.perf_counter() - t
+    t = time.perf_counter()
+    Vs, Qs, _ = subdivided_mesh(Vc, Fc, levels=levels, boundary="crease", max_faces=max_faces, name="coarse")
+    timings["subdivide"] = timings.get("subdivide", 0.0) + time.perf_counter() - t
+    t = time.perf_counter()
+    if spread_boundary:
+        pulled = pulled_subdivision(Vs, Qs, Vc, V, T, name="candidate", reference_name="surface")
+    else:
+        pulled = pulled_vertices(Vs, Qs, V, T, boundary="boundary", name="candidate", reference_name="surface")
+    timings["pull"] = timings.get("pull", 0.0) + time.perf_counter() - t
+    return _Candidate((Vc, Fc), pulled.V, Qs, used, faces, pulled, warnings + list(pulled.warnings))
+
+
+def _candidate_folds(cand: _Candidate, reference) -> int:
+    """Faces of the candidate with a fold defect (crossing, folded onto a neighbour, flipped, non-convex, a corner
+    out of bounds): what planarization cannot undo."""
+    h = face_health(cand.X, cand.Q, reference, tolerance=1e300, **HEALTH_BOUNDS, name="candidate")
+    return int(np.count_nonzero(h.face_defects & _FOLD_DEFECTS))
+
+
+def _candidate_healthy(cand: _Candidate, reference) -> bool:
+    return _candidate_folds(cand, reference) == 0
+
+
+def _other_candidate(V, T, first, faces, layout, levels, max_faces, spread_boundary, timings, warnings):
+    """When the automatic net's candidate folds (a re-entrant corner pulled across itself, a net too coarse for the
+    curvature): the other layouts, then finer nets (:data:`_FINER`), the first candidate without folds; else the
+    one with the fewest folded faces. A warning says what was used instead."""
+    reference = (V, T)
+    n_first = _candidate_folds(first, reference)
+    best, n_best = first, n_first
+    tries = [(other, faces) for other in _LAYOUTS if other not in (layout, first.layout)] + \
+            [(layout, math.ceil(f * faces)) for f in _FINER]
+    for lay, f in tries:
+        n, k = ogrid_size(f)
+        if max(n * n + 4 * n * k, math.ceil(1.5 * f)) * 4 ** levels > max_faces:
+            continue
+        try:
+            cand = _candidate(V, T, None, f, lay, levels, max_faces, spread_boundary, timings)
+        except (InputError, ValueError) as exc:  # a layout that does not apply to this surface
+            log.debug("subdivision: layout %s with %d faces not usable: %s", lay, f, exc)
+            continue
+        n_cand = _candidate_folds(cand, reference)
+        if n_cand < n_best:
+            best, n_best = cand, n_cand
+        if n_best == 0:
+            break
+    if best is not first:
+        warnings.append(f"the automatic coarse net ({first.layout}, {first.faces} faces) made a candidate with "
+                        f"{n_first} folded or pinched faces; used the {best.layout} net with {best.faces} faces "
+                        f"instead ({n_best} such faces)")
+    return best
+
+
 def _planarized(Xc, Qs, reference, closeness_weight, **kwargs):
     """The planarizer's result on the candidate (boundary sliding on the surface's, its guard at the fabrication
     bounds).
@@ -109,12 +190,6 @@ def _planarized(Xc, Qs, reference, closeness_weight, **kwargs):
 
 def _health(X, Q, tolerance, reference=None) -> PanelHealth:
     return face_health(X, Q, reference, tolerance=tolerance, **HEALTH_BOUNDS, name="planarized")
-
-
-def _shape_healthy(h: PanelHealth) -> bool:
-    """No defect but planarity, and the coverage reached (when measured)."""
-    covered = bool(np.isnan(h.coverage) or h.coverage >= HEALTH_BOUNDS["min_coverage"])
-    return bool(not np.any(h.face_defects & _SHAPE_DEFECTS)) and covered
 
 
 def _healthy_state(X0, X1, Q, tolerance):
@@ -263,27 +338,12 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     # ---- heavy work
     timings: dict = {}
     warnings: list[str] = []
-    used_layout = "given"
-    t = time.perf_counter()
-    if coarse is None:
-        center, size = _frame(V)
-        net = coarse_net((V - center) / size, T, faces=faces, layout=layout, levels=levels)
-        Vc, Fc = net.V * size + center, net.Q
-        used_layout = net.layout
-        warnings += net.warnings
-    timings["coarse"] = time.perf_counter() - t
-    t = time.perf_counter()
-    Vs, Qs, _ = subdivided_mesh(Vc, Fc, levels=levels, boundary="crease", max_faces=max_faces, name="coarse")
-    timings["subdivide"] = time.perf_counter() - t
-    t = time.perf_counter()
-    if spread_boundary:
-        pulled = pulled_subdivision(Vs, Qs, Vc, V, T, name="candidate", reference_name="surface")
-    else:
-        pulled = pulled_vertices(Vs, Qs, V, T, boundary="boundary", name="candidate", reference_name="surface")
-    warnings += pulled.warnings
-    Xc = pulled.V
+    cand = _candidate(V, T, None if coarse is None else (Vc, Fc), faces, layout, levels, max_faces, spread_boundary, timings)
+    if coarse is None and not _candidate_healthy(cand, (V, T)):
+        cand = _other_candidate(V, T, cand, faces, layout, levels, max_faces, spread_boundary, timings, warnings)
+    (Vc, Fc), Xc, Qs, used_layout, pulled = cand.coarse, cand.X, cand.Q, cand.layout, cand.pulled
+    warnings += cand.warnings
     cand_dist = pulled.distances_after
-    timings["pull"] = time.perf_counter() - t
     cand_pl = quad_planarity(Xc, Qs)
     mean_edge = _mean_edge(Xc, Qs)
     res = None
@@ -303,7 +363,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     t = time.perf_counter()
     health = _health(X, Qs, tolerance, (V, T))
     timings["health"] = timings.get("health", 0.0) + time.perf_counter() - t
-    healthy = _shape_healthy(health)
+    healthy = shape_healthy(health, HEALTH_BOUNDS["min_coverage"])
     planarity = float(quad_planarity(X, Qs).max()) if len(Qs) else 0.0
     reached = planarity <= tolerance
     if res is not None:  # the planarizer's own verdict (where it gives one) said of the returned state

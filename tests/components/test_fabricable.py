@@ -56,27 +56,7 @@ from tests.fabricable import (
 # on the sample surfaces and shared disks, to test_healthy_or_typed_error; a reason that starts with "reported"
 # (the run reports itself unhealthy, or failed without a typed error: it claims nothing) applies to
 # test_healthy_or_typed_error only. The input "wave_units" is test_unit_scale. Remove an entry when it XPASSes.
-XFAIL: dict[tuple[str, str], str] = {
-    ("inspired", "conjugate_field"):
-        "reported unhealthy: coverage 66% of the design surface < 85% (1 hole larger than one panel, too far from "
-        "the panels); tolerance missed: max planarity 0.013",
-    ("wave", "curvature_network"):
-        "reported unhealthy: 1 edge shorter than 0.2 × median edge (shortest 0.197 × median)",
-    ("inspired", "curvature_network"):
-        "reported unhealthy: 1 edge shorter than 0.2 × median edge (shortest 0.198 × median)",
-    ("lilium", "curvature_network"):
-        "reported unhealthy: coverage 81% of the design surface < 85% (holes larger than one panel)",
-    ("minimal_surface", "curvature_network"):
-        "reported unhealthy: corners under 20° (worst 8.5°), an edge of 0.129 × the median",
-    ("igloo", "curvature_network"):
-        "reported unhealthy: coverage 56% of the design surface < 85% (holes larger than one panel)",
-    ("enneper", "curvature_network"):
-        "reported unhealthy: corners over 160°, non-convex face, 1 crossing face pair",
-    ("rhinovault", "curvature_network"):
-        "reported unhealthy: coverage 82% of the design surface < 85% (1 hole larger than one panel)",
-    ("tri_dome", "curvature_network"):
-        "reported unhealthy: coverage 48% of the design surface < 85% (1 hole larger than one panel)",
-}
+XFAIL: dict[tuple[str, str], str] = {}  # every case of issue 16 passes (session 5)
 
 STRATEGIES = ("conjugate_field", "curvature_network", "subdivision")
 METHODS = STRATEGIES + ("planarize",)
