@@ -1,4 +1,4 @@
-"""Command line: ``ghserver serve``, ``ghserver list``.
+"""Command line: ``ghserver serve``, ``ghserver list``, ``ghserver fabricate``.
 
 ``python -m ghserver`` and the ``ghserver`` console script both call :func:`main`.
 """
@@ -153,6 +153,59 @@ def _list(args) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------------------------
+# ghserver fabricate
+
+def _fabricate(args) -> int:
+    from pathlib import Path
+
+    import numpy as np
+
+    from components.core.mesh import read_mesh
+    from components.fabrication.export import fabrication, write_csv, write_dxf
+    from ghserver.convert import write_3dm
+
+    logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines describe the DXF file's internals
+    path = Path(args.mesh)
+    tol = list(args.tolerance or [])
+    sheet = args.sheet or (0.0, 0.0)
+    try:
+        V, F = read_mesh(path)
+        fab = fabrication(V, F, tolerance=tol[0] if tol else 0.0, tolerances=tol, mirror=not args.no_mirror,
+                          sheet_width=sheet[0], sheet_height=sheet[1], gap=args.gap, method=args.method,
+                          axes=args.axes, beam_height=args.beam_height, beam_width=args.beam_width,
+                          kink_limit=args.kink_limit, name=path.name)
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        written = [write_dxf(out / f"{path.stem}_panels.dxf", fab),
+                   write_csv(out / f"{path.stem}_cutting_list.csv", fab), write_3dm(out / f"{path.stem}.3dm", fab)]
+    except (ValueError, OSError) as exc:  # InputError / MeshError are ValueErrors: a bad file or option
+        print(f"ghserver fabricate: {exc}", file=sys.stderr)
+        return 2
+    flat, types, dh = fab.flat, fab.types, fab.dihedrals
+    kink = dh.angle[dh.interior]
+    tors = np.abs(fab.frames.torsion)
+    lay = fab.layout
+    print(f"{path.name}: {len(F):,} panels on {lay.sheet_count} sheet(s) of {lay.sheet_width:.4g} × "
+          f"{lay.sheet_height:.4g}, flattening error {flat.length_error.max(initial=0.0):.1e} (relative), "
+          f"largest corner residual {np.abs(flat.residual).max(initial=0.0):.3g}")
+    mirror = "not allowed" if args.no_mirror else "allowed"
+    print(f"panel types at {types.tolerance:.4g}: {len(types.counts)} (mirror {mirror})")
+    print("| tolerance | types |")
+    print("|---:|---:|")
+    for t, n in zip(types.tolerances.tolist(), types.type_counts.tolist()):
+        print(f"| {t:.4g} | {n} |")
+    if len(kink):
+        print(f"kinks: max {kink.max():.3g}°, mean {kink.mean():.3g}°, {int(np.sum(kink > fab.kink_limit))} joints "
+              f"over {fab.kink_limit:g}°")
+    print(f"nodes: {fab.supports.method} axes ({'conical' if fab.supports.conical else 'not conical'}), "
+          f"torsion max {tors.max(initial=0.0):.3g}°, mean {tors.mean() if len(tors) else 0.0:.3g}°")
+    for w in fab.warnings:
+        print(f"warning: {w}")
+    print("wrote " + ", ".join(str(p) for p in written))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="ghserver", description="Planar-quad meshing components for Grasshopper Hops")
     parser.add_argument("--log-level", default="INFO", help="DEBUG, INFO, WARNING (default INFO)")
@@ -186,6 +239,25 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="the comparison report on the built-in surfaces (under 2 minutes)")
     report.add_demo_arguments(d)
     d.set_defaults(func=report.demo_command)
+    fb = sub.add_parser("fabricate", help="flat panels on sheets, panel types, kinks, node axes and beams of a "
+                                          "panelling: DXF, CSV cutting list and .3dm")
+    fb.add_argument("mesh", help="the panelling: an OBJ, OFF or PLY mesh file")
+    fb.add_argument("--out", default="fabrication", help="output folder (default ./fabrication)")
+    fb.add_argument("--tolerance", type=float, nargs="+", default=None, metavar="T",
+                    help="panel-type tolerance(s) in model units: types at the first, counts at all (default "
+                         "1e-3 × the median edge, counts at 1, 2, 5, 10 × it)")
+    fb.add_argument("--sheet", type=float, nargs=2, default=None, metavar=("W", "H"),
+                    help="sheet width and height in model units (default: one sheet, about square)")
+    fb.add_argument("--gap", type=float, default=0.0, help="gap between panels on the sheets (model units)")
+    fb.add_argument("--no-mirror", action="store_true", help="a panel and its mirror image are different types")
+    fb.add_argument("--method", choices=("project", "unfold"), default="project",
+                    help="flattening of warped panels (default project)")
+    fb.add_argument("--axes", choices=("auto", "offset", "normals"), default="auto",
+                    help="node axes (default: offset axes of a conical mesh, else face normals)")
+    fb.add_argument("--beam-height", type=float, default=0.0, help="beam depth (default 0.2 × the mean edge)")
+    fb.add_argument("--beam-width", type=float, default=0.0, help="beam width (default 0.05 × the mean edge)")
+    fb.add_argument("--kink-limit", type=float, default=10.0, help="joints kinking more are counted (degrees)")
+    fb.set_defaults(func=_fabricate)
     ls = sub.add_parser("list", help="print the component catalogue")
     ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")
     ls.add_argument("--markdown", action="store_true", help="a Markdown table (the one in README.md)")

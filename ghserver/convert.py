@@ -15,12 +15,15 @@ from __future__ import annotations
 
 import json
 import logging
+from pathlib import Path
 
 import numpy as np
 import rhino3dm
 
-from components.core.mesh import face_sizes, triangulate
+from components.core.mesh import face_centroids, face_sizes, triangulate
 from components.core.types import NurbsCurve, NurbsSurface
+from components.fabrication.nodes import beam_meshes
+from components.fabrication.panels import closed_polylines, placed_outlines
 
 log = logging.getLogger(__name__)
 
@@ -303,3 +306,75 @@ def decode_point_object(data) -> np.ndarray:
         loc = obj.Location
         return np.array([loc.X, loc.Y, loc.Z])
     raise DecodeError(f"expected a Point, got a {type(obj).__name__}")
+
+
+# ----------------------------------------------------------------------------------------------
+# fabrication model (ghserver fabricate)
+
+#: layer name → colour (RGBA) of the .3dm written by ``write_3dm``
+LAYERS_3DM = {
+    "panels": (90, 160, 210, 255),
+    "labels": (40, 40, 40, 255),
+    "node_axes": (210, 60, 60, 255),
+    "beams": (150, 150, 150, 255),
+    "flat_panels": (40, 160, 160, 255),
+    "sheets": (120, 120, 120, 255),
+}
+
+
+def write_3dm(path, fab):
+    """The fabrication model as a Rhino file: every panel, its label, the node axes, the beams and the flat layout.
+
+    Layers (:data:`LAYERS_3DM`): ``panels`` (one mesh per panel, named by its label), ``labels`` (a TextDot with
+    the label at every panel's centre), ``node_axes`` (a line per vertex, one beam height along its axis to the
+    inside), ``beams`` (a box mesh per edge), ``flat_panels`` (the closed flat outlines on their sheets, laid out
+    beside the model) and ``sheets`` (the sheets' rectangles). Returns the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.3dm`` file to write.
+    fab : components.fabrication.export.Fabrication
+        From :func:`components.fabrication.export.fabrication`.
+    """
+    model = rhino3dm.File3dm()
+    index = {}
+    for name, colour in LAYERS_3DM.items():
+        layer = rhino3dm.Layer()
+        layer.Name = name
+        layer.Color = colour
+        index[name] = model.Layers.Add(layer)
+
+    def attrs(layer, name=""):
+        a = rhino3dm.ObjectAttributes()
+        a.LayerIndex = index[layer]
+        if name:
+            a.Name = name
+        return a
+
+    V, F, flat = fab.V, fab.F, fab.flat
+    for f, label in enumerate(flat.labels):
+        n = int(flat.sizes[f])
+        model.Objects.AddMesh(arrays_to_mesh(V[F[f, :n]], np.arange(n)[None, :]), attrs("panels", label))
+    for label, c in zip(flat.labels, face_centroids(V, F).tolist()):
+        model.Objects.AddTextDot(label, rhino3dm.Point3d(*c), attrs("labels", label))
+    used = np.unique(F)
+    for v in used.tolist():
+        a, b = V[v], V[v] - fab.beam_height * fab.supports.axes[v]
+        model.Objects.AddLine(rhino3dm.Point3d(*a.tolist()), rhino3dm.Point3d(*b.tolist()), attrs("node_axes"))
+    for Vb, Fb in beam_meshes(V, fab.frames, fab.supports.axes, fab.beam_height, fab.beam_width):
+        model.Objects.AddMesh(arrays_to_mesh(Vb, Fb), attrs("beams"))
+    lay = fab.layout
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    shift = np.array([hi[0] + 0.2 * (hi[0] - lo[0]) - lay.sheet_origin[0, 0], lo[1], lo[2]])
+    placed = placed_outlines(flat, lay)
+    for label, c in zip(flat.labels, closed_polylines(placed, flat.sizes)):
+        model.Objects.AddCurve(value_to_curve(c + shift), attrs("flat_panels", label))
+    W, H = lay.sheet_width, lay.sheet_height
+    rect = np.array([[0.0, 0, 0], [W, 0, 0], [W, H, 0], [0, H, 0], [0, 0, 0]])
+    for s, (ox, oy) in enumerate(lay.sheet_origin.tolist()):
+        model.Objects.AddCurve(value_to_curve(rect + np.array([ox, oy, 0.0]) + shift), attrs("sheets", f"sheet {s}"))
+    path = Path(path)
+    if not model.Write(str(path), 7):
+        raise OSError(f"{path}: rhino3dm could not write the file")
+    return path

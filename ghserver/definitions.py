@@ -208,6 +208,21 @@ SPECS: tuple[Spec, ...] = (
         ),
     ),
     Spec(
+        "fabrication.ghx",
+        "From a conical mesh to fabrication",
+        "The curvature-network strategy makes a conical planar-quad mesh of the design surface (top); its panels "
+        "laid flat on sheets with labels and dimensions, their panel types at a tolerance with the count at four "
+        "tolerances, the kink angle at every joint, and the node axes with torsion-free beams (the offset axes of "
+        "the conical mesh).",
+        (
+            Step("pq", "network/pq_from_curvature_network", lane=0, preview="green"),
+            Step("panels", "fabrication/panels", feeds={"mesh": ("pq", "optimized")}, lane=1),
+            Step("types", "fabrication/panel_types", feeds={"mesh": ("pq", "optimized")}, lane=1, show="all"),
+            Step("kinks", "fabrication/kinks", feeds={"mesh": ("pq", "optimized")}, lane=2),
+            Step("nodes", "fabrication/nodes", feeds={"mesh": ("pq", "optimized")}, lane=2, preview="grey"),
+        ),
+    ),
+    Spec(
         "comparison.ghx",
         "All strategies side by side",
         "Every strategy of the server on the same design surface, one lane each (translation and "

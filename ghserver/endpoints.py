@@ -10,6 +10,10 @@ import components.conical.cones
 import components.conical.optimize
 import components.core.conformal
 import components.core.curvature
+import components.fabrication.congruence
+import components.fabrication.kinks
+import components.fabrication.nodes
+import components.fabrication.panels
 import components.fields.candidate
 import components.fields.field
 import components.fields.parametrize
@@ -91,6 +95,14 @@ COMPONENTS = [
     declare(components.subdivision.coarse.coarse_mesh, "subdivision/coarse_mesh", nicknames={"surface": "S"}),
     declare(components.subdivision.pipeline.pq_from_subdivision, "subdivision/pq_from_subdivision",
             nicknames={"surface": "S", "coarse": "C"}),
+    # fabrication
+    declare(components.fabrication.panels.panels, "fabrication/panels", nicknames=M,
+            ranges={"sheet_width": (0.0, None), "sheet_height": (0.0, None), "gap": (0.0, None)}),
+    declare(components.fabrication.congruence.panel_types, "fabrication/panel_types", nicknames=M,
+            ranges={"tolerance": (0.0, None)}),
+    declare(components.fabrication.kinks.kinks, "fabrication/kinks", nicknames=M, ranges={"limit": (0.0, 180.0)}),
+    declare(components.fabrication.nodes.nodes, "fabrication/nodes", nicknames=M,
+            ranges={"beam_height": (0.0, None), "beam_width": (0.0, None)}),
 ]
 
 

@@ -15,6 +15,10 @@
   violations) and the status; the JSON also records every image with the range of its colour bar;
 * ``meshes/*.obj``: the candidate and optimized meshes.
 
+Every result with a mesh also gets a small fabrication section (:func:`fabrication_summary` of its final mesh,
+``"fabrication"`` in the JSON): the number of panel types at 1, 2, 5 and 10 × 1e-3 of the median edge length, a
+histogram of the kink angles at the joints, and the node axes' torsion.
+
 A row's status is the harness's verdict (:func:`components.harness.judge` on
 :func:`components.metrics.health.face_health` of the final mesh against the design surface): ``"ok"`` only for a
 healthy result within the planarity tolerance; ``"unhealthy"`` and ``"tolerance missed"`` name the defect in the
@@ -615,6 +619,7 @@ def _html(report: dict, titles: dict) -> str:
                 if img["kind"] == "histogram":
                     parts.append(f'<figure class="wide">{_img(img["file"], img["title"], img["size"])}'
                                  f'<figcaption>{_e(img["title"])}</figcaption></figure>')
+            parts.append(_fabrication_html(r.get("fabrication")))
             files = " ".join(f'<a href="{_e(f)}">{_e(Path(f).name)}</a>' for f in r["meshes"].values())
             parts.append(f'<details><summary>All metrics and timings ({_e(r["strategy"])}, {_e(sname)})</summary>'
                          f'{_metrics_table(r)}<p class="note">Meshes: {files}</p></details>')
@@ -820,6 +825,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                                               "vmin": vmin, "vmax": vmax, "faces": int(len(Fm)),
                                               "vertices": int(len(Vm)), "size": list(IMAGE_SIZE)})
                         bar.step(f"{surf.name}: {sname} {stage} {measure}")
+                row["fabrication"] = fabrication_summary(*stages[-1][1][:2])
                 fname = f"img/{_slug(surf.name, sname, 'histograms')}.png"
                 htitle = f"{titles[sname][0]} on {surf.name}: candidate vs optimized"
                 render_histograms(out / fname, per_stage["candidate"], per_stage.get("optimized"), htitle)
@@ -901,6 +907,64 @@ def _areas_of(path: Path) -> np.ndarray:
 
     V, F = read_mesh(path)
     return polygon_areas(V, F)
+
+
+#: kink-angle histogram bins of the fabrication section (degrees)
+KINK_BINS = (0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 180.0)
+
+
+def fabrication_summary(V, F) -> dict:
+    """Panel types against the tolerance, the kink histogram and the torsion of a final mesh (the report's
+    fabrication section); ``{"error": message}`` when the mesh cannot be fabricated as it is (e.g. a collapsed
+    face).
+
+    The tolerances are 1, 2, 5 and 10 × 1e-3 of the median edge length (the default of
+    :func:`components.fabrication.export.fabrication`), so surfaces of any size compare.
+    """
+    from components.fabrication.export import fabrication
+
+    try:
+        fab = fabrication(V, F)
+    except ValueError as exc:  # InputError / MeshError: say why instead of a section
+        return {"error": str(exc)}
+    dh = fab.dihedrals
+    kinks = dh.angle[dh.interior]
+    tors = np.abs(fab.frames.torsion)
+    return {
+        "panels": int(len(F)),
+        "tolerances": [float(t) for t in fab.types.tolerances],
+        "type_counts": [int(c) for c in fab.types.type_counts],
+        "kink_bins": list(KINK_BINS),
+        "kink_counts": [int(c) for c in np.histogram(kinks, bins=KINK_BINS)[0]],
+        "max_kink": float(kinks.max()) if len(kinks) else 0.0,
+        "mean_kink": float(kinks.mean()) if len(kinks) else 0.0,
+        "axes": fab.supports.method,
+        "conical": bool(fab.supports.conical),
+        "max_torsion": float(tors.max(initial=0.0)),
+        "mean_torsion": float(tors.mean()) if len(tors) else 0.0,
+        "max_length_error": float(fab.flat.length_error.max(initial=0.0)),
+    }
+
+
+def _fabrication_html(fab: dict | None) -> str:
+    if not fab:
+        return ""
+    if "error" in fab:
+        return f'<p class="note">Fabrication: {_e(fab["error"])}</p>'
+    tol = "".join(f"<th>{_fmt(t)}</th>" for t in fab["tolerances"])
+    types = "".join(f"<td>{c}</td>" for c in fab["type_counts"])
+    b = fab["kink_bins"]
+    bins = "".join(f"<th>{_fmt(lo)}–{_fmt(hi)}°</th>" for lo, hi in zip(b[:-1], b[1:]))
+    counts = "".join(f"<td>{c}</td>" for c in fab["kink_counts"])
+    axes = f'{fab["axes"]} axes ({"conical" if fab["conical"] else "not conical"})'
+    return ("<h4>Fabrication (final mesh)</h4>"
+            f'<table><thead><tr><th class="l">panel types at tolerance</th>{tol}</tr></thead>'
+            f'<tbody><tr><td class="l">types of {fab["panels"]:,} panels</td>{types}</tr></tbody></table>'
+            f'<table><thead><tr><th class="l">kink angle</th>{bins}</tr></thead>'
+            f'<tbody><tr><td class="l">joints</td>{counts}</tr></tbody></table>'
+            f'<p class="note">Kinks: max {_fmt(fab["max_kink"])}°, mean {_fmt(fab["mean_kink"])}°. Node {_e(axes)}: '
+            f'torsion max {_fmt(fab["max_torsion"])}°, mean {_fmt(fab["mean_torsion"])}°. Flat panels keep their '
+            f'3D edges and diagonals to {_fmt(fab["max_length_error"])} (relative).</p>')
 
 
 def run_demo(out_dir=DEFAULT_OUT, progress: bool = True) -> ReportSummary:

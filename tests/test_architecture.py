@@ -14,7 +14,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the stages of ``components/``, lowest first: a module may import its own stage and the stages before it
-STAGES = ("core", "surfaces", "metrics", "planarize", "fields", "conical", "network", "subdivision", "harness")
+STAGES = ("core", "surfaces", "metrics", "planarize", "fields", "conical", "network", "subdivision", "fabrication",
+          "harness")
 
 #: a function-level import is allowed when its line (or the line before) says why, with this marker
 DEFERRED_MARKER = "deferred import:"

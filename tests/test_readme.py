@@ -26,8 +26,8 @@ def test_component_table_is_current():
     assert block == table, "run `ghserver list --markdown` and paste it between the components markers in README.md"
 
 
-def _python_blocks():
-    section = README.split("## Python", 1)[1].split("\n## ", 1)[0]
+def _python_blocks(heading="## Python"):
+    section = README.split(heading, 1)[1].split("\n## ", 1)[0]
     return re.findall(r"```python\n(.*?)```", section, re.S)
 
 
@@ -43,3 +43,11 @@ def test_readme_python_examples_run(tmp_path, monkeypatch):
     assert len(blocks) >= 2
     for block in blocks:
         exec(compile(block, "README.md", "exec"), {"print": lambda *a, **k: None})
+
+
+def test_readme_fabrication_example_runs(tmp_path, monkeypatch):
+    """The Fabrication section's example runs as written and writes the files it names."""
+    monkeypatch.chdir(tmp_path)
+    (block,) = _python_blocks("## Fabrication")
+    exec(compile(block, "README.md", "exec"), {"print": lambda *a, **k: None})
+    assert {p.name for p in tmp_path.iterdir()} >= {"roof.obj", "roof_panels.dxf", "roof_cutting_list.csv"}

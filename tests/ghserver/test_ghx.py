@@ -473,7 +473,7 @@ def test_specs_are_well_formed():
     names = [s.filename for s in SPECS]
     assert len(names) == len(set(names))
     assert {"metrics_analysis.ghx", "translation_surfaces.ghx", "conjugate_field.ghx",
-            "curvature_network_conical.ghx", "subdivision.ghx", "comparison.ghx"} == set(names)
+            "curvature_network_conical.ghx", "subdivision.ghx", "comparison.ghx", "fabrication.ghx"} == set(names)
     for spec in SPECS:
         ids = [s.id for s in spec.steps]
         assert len(ids) == len(set(ids)), spec.filename

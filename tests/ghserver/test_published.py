@@ -88,6 +88,15 @@ def check_planarity(r):
 
 
 CASES = {
+    "fabrication/panels": (lambda: dict(mesh=quad_grid(4, 3, 4.0, 3.0), gap=0.1),
+                           lambda r: r.labels[:2] == ["A01", "A02"] and np.allclose(r.areas, 1.0)
+                           and r.max_length_error < 1e-12 and len(r.outlines) == 12),
+    "fabrication/panel_types": (lambda: dict(mesh=hypar(), tolerance=1e-6),
+                                lambda r: r.type_count == len(r.counts) and r.counts.sum() == 64
+                                and np.all(np.diff(r.type_counts) <= 0)),
+    "fabrication/kinks": (lambda: dict(mesh=hypar()), lambda r: len(r.kinks) == 112 and r.max_kink > 1.0),
+    "fabrication/nodes": (lambda: dict(mesh=quad_grid(4, 4)),
+                          lambda r: r.axis_method == "offset" and r.max_torsion < 1e-9 and len(r.beams) == 40),
     "metrics/planarity": (lambda: dict(mesh=hypar()), check_planarity),
     "metrics/warping": (lambda: dict(mesh=hypar()), lambda r: np.isclose(r.max_warping, r.warping.max())),
     "metrics/diagonal_ratio": (lambda: dict(mesh=hypar()), lambda r: np.all(r.diagonal_ratio >= 1.0)),
