@@ -145,14 +145,13 @@ def test_readme_fabrication_example_runs_and_prints_what_it_says(tmp_path, monke
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     section = readme.split("## Fabrication\n", 1)[1].split("\n## ", 1)[0]
     (block,) = re.findall(r"```python\n(.*?)```", section, re.S)
-    V, Q = roof()
-    write_obj(tmp_path / "roof.obj", V, Q)
     monkeypatch.chdir(tmp_path)
     printed = []
     exec(compile(block, "README.md", "exec"), {"print": lambda *a: printed.append(a)})
     labels, sheets, err = printed[0]
-    assert labels == ["A01", "A02", "A03"] and sheets == 8 and err < 1e-15
-    assert printed[1][0] == 3 and printed[1][1].tolist() == [3, 3, 2, 1]
-    assert round(printed[2][0], 2) == 5.72 and printed[3][0] < 1e-12
+    assert labels == ["A01", "A02", "A03"] and sheets == 5 and err < 1e-15
+    assert printed[1][0] == 1 and printed[1][1].tolist() == [1, 1, 1, 1]  # a barrel vault: one panel type
+    assert round(printed[2][0], 1) == 14.3 and printed[3][0] < 1e-12  # 1/4 rad between the rows; conical
+    assert (tmp_path / "roof.obj").exists()
     assert (tmp_path / "roof_panels.dxf").exists() and (tmp_path / "roof_cutting_list.csv").exists()
     assert "ghserver fabricate roof.obj --out fabrication" in section
