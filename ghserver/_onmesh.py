@@ -58,7 +58,7 @@ import zlib
 
 import numpy as np
 
-__all__ = ["read_mesh", "read_mesh_colors", "write_mesh"]
+__all__ = ["TooLarge", "mesh_counts", "read_mesh", "read_mesh_colors", "write_mesh"]
 
 logger = logging.getLogger(__name__)
 
@@ -107,6 +107,18 @@ _HEADER = struct.Struct("<Iq")
 
 class _Invalid(Exception):
     """Raised internally when the archive is not one this module fully understands."""
+
+
+class TooLarge(ValueError):
+    """The archive declares more vertices or faces than the caller allows (raised before any allocation).
+
+    ``what`` is ``"vertices"`` or ``"faces"``, ``count`` the declared number and ``key`` the limit's name
+    (``"max_vertices"`` / ``"max_faces"``), ``limit`` its value.
+    """
+
+    def __init__(self, what: str, count: int, key: str, limit: int):
+        super().__init__(f"{count} {what} is more than the limit of {limit}")
+        self.what, self.count, self.key, self.limit = what, count, key, limit
 
 
 # ---------------------------------------------------------------------------
@@ -316,11 +328,21 @@ def _decode_payload(obj: dict) -> bytes:
     return binascii.a2b_base64(data, strict_mode=True)
 
 
-def _read_mesh_record(r: _Reader, colors: bool = False):
+def _check_counts(vcount: int, fcount: int, limits: dict | None) -> None:
+    """Raise :class:`TooLarge` when declared counts pass ``limits`` (``max_vertices``, ``max_faces``)."""
+    for count, what, key in ((vcount, "vertices", "max_vertices"), (fcount, "faces", "max_faces")):
+        limit = (limits or {}).get(key)
+        if limit and count > limit:
+            raise TooLarge(what, count, key, limit)
+
+
+def _read_mesh_record(r: _Reader, colors: bool = False, limits: dict | None = None):
     """Parse the body of a ``TCODE_OPENNURBS_CLASS_DATA`` chunk holding an ON_Mesh.
 
     Returns ``(V, F, C)``; ``C`` is ``None`` unless ``colors`` is true and the
     mesh has vertex colours (then ``(n, 4)`` uint8 RGBA, alpha 255 = opaque).
+    The declared counts are checked against ``limits`` before anything is
+    inflated or allocated.
     """
     buf = r.buf
     version = r.u8()
@@ -330,6 +352,7 @@ def _read_mesh_record(r: _Reader, colors: bool = False):
     fcount = r.i32()
     if vcount < 0 or fcount < 0:
         raise _Invalid("negative counts")
+    _check_counts(vcount, fcount, limits)
     # packed texture domain, surface domain (4 intervals), surface scale (2 doubles),
     # float vertex box (6 floats), normal box (6 floats), texture box (4 floats),
     # closed flag (int)
@@ -451,7 +474,7 @@ def _check_double_vertices(dV: np.ndarray, fV: np.ndarray | None) -> None:
         raise _Invalid("float and double precision vertices disagree")
 
 
-def _read(obj: dict, colors: bool, name: str):
+def _read(obj: dict, colors: bool, name: str, limits: dict | None = None):
     """Shared body of :func:`read_mesh` and :func:`read_mesh_colors`."""
     try:
         buf = _decode_payload(obj)
@@ -464,7 +487,7 @@ def _read(obj: dict, colors: bool, name: str):
             raise _Invalid("not an ON_Mesh")
         r.end()
         r.begin(_TCODE_CLASS_DATA)
-        result = _read_mesh_record(r, colors)
+        result = _read_mesh_record(r, colors, limits)
         r.end()
         typecode, value = r.begin()  # a short chunk is complete after begin()
         if typecode != _TCODE_CLASS_END or value != 0:
@@ -474,13 +497,15 @@ def _read(obj: dict, colors: bool, name: str):
         return result
     except _Invalid as exc:
         logger.debug("%s: falling back (%s)", name, exc)
-    except (ValueError, TypeError, KeyError, IndexError, OverflowError, MemoryError,
+    except TooLarge:
+        raise  # over the caller's limits: no fallback may decode it again
+    except (ValueError, TypeError, KeyError, IndexError, OverflowError,
             struct.error, zlib.error, binascii.Error) as exc:  # defensive: never raise on garbage
         logger.debug("%s: falling back (%s: %s)", name, type(exc).__name__, exc)
     return None
 
 
-def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
+def read_mesh(obj: dict, limits: dict | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """Read vertices and faces from a JSON-encoded openNURBS mesh.
 
     Parameters
@@ -488,6 +513,9 @@ def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
     obj : dict
         ``{"version", "archive3dm", "opennurbs", "data"}`` as produced by
         rhino3dm's ``Mesh.Encode()`` or sent by RhinoCommon/Hops.
+    limits : dict, optional
+        ``max_vertices`` / ``max_faces``: declared counts beyond them raise
+        :class:`TooLarge` before any buffer is inflated or allocated.
 
     Returns
     -------
@@ -498,7 +526,9 @@ def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
         ``(a, b, c, c)``).  ``None`` when the data is not an ON_Mesh in a
         layout this reader fully understands and verifies (unknown versions,
         user data, CRC or length mismatch, truncation, garbage); the caller
-        should then fall back to rhino3dm.  Never raises.
+        should then fall back to rhino3dm.  Raises only :class:`TooLarge`
+        (counts over ``limits``) and ``MemoryError``; neither should be
+        decoded again by a fallback.
 
     Notes
     -----
@@ -506,11 +536,52 @@ def read_mesh(obj: dict) -> tuple[np.ndarray, np.ndarray] | None:
     mesh parameters and n-gons are checked structurally and skipped; use
     :func:`read_mesh_colors` to get the vertex colours as well.
     """
-    result = _read(obj, False, "read_mesh")
+    result = _read(obj, False, "read_mesh", limits)
     return None if result is None else result[:2]
 
 
-def read_mesh_colors(obj: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+#: offsets in an ON_Mesh object archive: class chunk (12), uuid chunk (12 + 16 + 4 CRC), class data chunk (12),
+#: then the ON_Mesh chunk version byte and the vertex and face counts (int32 each)
+_COUNTS_AT = 12 + 12 + 20 + 12
+_PREFIX_CHARS = 4 * ((_COUNTS_AT + 9 + 2) // 3)
+
+
+def mesh_counts(obj) -> tuple[int, int] | None:
+    """The vertex and face counts an ON_Mesh archive declares, read from its first bytes only.
+
+    Cheap (about 90 base64 characters are decoded, nothing is inflated), so a server can refuse an oversized
+    mesh, or a request whose meshes add up to too much, before decoding any of them. ``None`` when the
+    payload does not start like an ON_Mesh record of chunk version 3.x (the full readers then decide).
+    Never raises.
+
+    >>> import numpy as np
+    >>> mesh_counts(write_mesh(np.zeros((5, 3)), [[0, 1, 2, 3], [1, 2, 3, 4]]))
+    (5, 2)
+    """
+    try:
+        data = obj.get("data") if isinstance(obj, dict) else None
+        if not isinstance(data, str):
+            return None
+        head = binascii.a2b_base64(data[:_PREFIX_CHARS])
+        if len(head) < _COUNTS_AT + 9:
+            return None
+        t0, _ = _HEADER.unpack_from(head, 0)
+        t1, n1 = _HEADER.unpack_from(head, 12)
+        t2, _ = _HEADER.unpack_from(head, 44)
+        if (t0, t1, n1, t2) != (_TCODE_CLASS, _TCODE_CLASS_UUID, 20, _TCODE_CLASS_DATA) or head[24:40] != _MESH_UUID:
+            return None
+        if head[_COUNTS_AT] >> 4 != _MESH_MAJOR:
+            return None
+        vcount, fcount = struct.unpack_from("<ii", head, _COUNTS_AT + 1)
+        if vcount < 0 or fcount < 0:
+            return None
+        return vcount, fcount
+    except (ValueError, TypeError, struct.error, binascii.Error):
+        return None
+
+
+def read_mesh_colors(obj: dict, limits: dict | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
     """Like :func:`read_mesh`, plus the per-vertex colours.
 
     Returns
@@ -522,7 +593,7 @@ def read_mesh_colors(obj: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
         the mesh has no vertex colours.  ``None`` instead of the tuple
         whenever :func:`read_mesh` returns ``None``.  Never raises.
     """
-    return _read(obj, True, "read_mesh_colors")
+    return _read(obj, True, "read_mesh_colors", limits)
 
 
 # ---------------------------------------------------------------------------

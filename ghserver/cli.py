@@ -39,28 +39,30 @@ def _reuse_port_socket(host: str, port: int) -> socket.socket:
 
 def make_server(app, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, threads: int = 8, reuse_port: bool = False,
                 **kw):
-    """A waitress server for ``app``; on the default loopback host it also listens on ``[::1]`` when available.
+    """A hardened waitress server (:func:`ghserver.serving.make_server`) for ``app``; on the default loopback
+    host it also listens on ``[::1]`` when available.
 
     Windows resolves ``localhost`` to ``::1`` first, so a Hops path ``http://localhost:5000/…`` stays fast.
     ``reuse_port`` (Linux, BSD, macOS) lets several server processes listen on the same address: the kernel
-    spreads connections over them (scale-out without a proxy; components are stateless).
+    spreads connections over them (scale-out without a proxy; components are stateless). Keyword options go to
+    :func:`ghserver.serving.make_server` (``max_body_mb``, ``connection_limit``, ``channel_timeout``,
+    ``request_timeout``, ...) and on to waitress.
     """
-    from waitress import create_server
+    from ghserver.serving import make_server as serving_server
 
-    opts = dict(threads=threads, channel_timeout=600, ident="ghserver", clear_untrusted_proxy_headers=True)
-    opts.update(kw)
+    kw = dict(kw, threads=threads)
     if reuse_port:
         if not hasattr(socket, "SO_REUSEPORT"):
             raise OSError("--reuse-port is not supported on this platform; run instances behind a reverse proxy")
-        return create_server(app, sockets=[_reuse_port_socket(host, port)], **opts)
+        return serving_server(app, sockets=[_reuse_port_socket(host, port)], **kw)
     listen = [f"{host}:{port}" if ":" not in host else f"[{host}]:{port}"]
     if host == DEFAULT_HOST and port != 0 and _ipv6_loopback_available():
         listen.append(f"[::1]:{port}")
     try:
-        return create_server(app, listen=" ".join(listen), **opts)
+        return serving_server(app, listen=" ".join(listen), **kw)
     except OSError:
         if len(listen) > 1:  # IPv6 half failed (port taken on ::1 only): serve IPv4 alone
-            return create_server(app, listen=listen[0], **opts)
+            return serving_server(app, listen=listen[0], **kw)
         raise
 
 
@@ -93,12 +95,14 @@ def config_from_args(args):
             "trusted network."
         )
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    hosts = tuple(h.strip() for item in (args.allowed_hosts or []) for h in item.split(",") if h.strip())
     return Config(
-        max_body_mb=args.max_body_mb, cache_size=args.cache_size, report_dir=args.report_dir, workers=workers,
-        solve_timeout=args.solve_timeout, memory_limit_mb=args.memory_limit_mb or None,
-        max_vertices=args.max_vertices, max_faces=args.max_faces,
-        max_pending_solves=max(1, args.threads - 4) if workers else 0, api_key=api_key,
-        registry_factory=args.components,
+        max_body_mb=args.max_body_mb, cache_size=args.cache_size, cache_mb=args.cache_mb, report_dir=args.report_dir,
+        workers=workers, solve_timeout=args.solve_timeout, memory_limit_mb=args.memory_limit_mb,
+        max_vertices=args.max_vertices, max_faces=args.max_faces, max_request_vertices=args.max_request_vertices,
+        max_request_faces=args.max_request_faces, max_json_mb=args.max_json_mb, max_response_mb=args.max_response_mb,
+        max_queued_mb=args.max_queued_mb, max_pending_solves=max(1, args.threads - 4) if workers else 0,
+        api_key=api_key, host=args.host, allowed_hosts=hosts, registry_factory=args.components,
     )
 
 
@@ -109,14 +113,19 @@ def _serve(args) -> int:
     app = create_app(cfg)
     n = len(app.extensions["ghserver.registry"])
     try:
+        extra = {"connection_limit": args.connection_limit} if args.connection_limit else {}
         server = make_server(app, args.host, args.port, threads=args.threads, reuse_port=args.reuse_port,
-                             max_request_body_size=int(args.max_body_mb * 2**20) + 1)
+                             max_body_mb=args.max_body_mb, channel_timeout=args.channel_timeout,
+                             request_timeout=args.request_timeout, **extra)
     except OSError as exc:
         log.error("cannot listen on %s:%s: %s", args.host, args.port, exc)
         return 2
+    cap = cfg.worker_memory_mb
     log.info("serving %d components on http://%s:%d/ (threads=%d, solver processes=%d, time limit %g s, "
-             "cache=%d, body limit %g MB%s)", n, args.host, args.port, args.threads, cfg.workers,
-             cfg.solve_timeout, args.cache_size, args.max_body_mb, ", API key required" if cfg.api_key else "")
+             "memory cap %s per process, cache=%d/%g MB, body limit %g MB, connections %d%s)", n, args.host,
+             args.port, args.threads, cfg.workers, cfg.solve_timeout, f"{cap:.0f} MB" if cap else "none",
+             args.cache_size, args.cache_mb, args.max_body_mb, server.adj.connection_limit,
+             ", API key required" if cfg.api_key else "")
     log.info("in Grasshopper: Hops path http://%s:%d/<component>, e.g. http://%s:%d/metrics/planarity",
              args.host, args.port, args.host, args.port)
     try:
@@ -216,18 +225,39 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--threads", type=int, default=16,
                    help="threads answering HTTP requests (default 16; 4 are kept free for metadata requests)")
     s.add_argument("--cache-size", type=int, default=64, help="solved results kept in memory; 0 disables (default 64)")
+    s.add_argument("--cache-mb", type=float, default=256, help="... and their total size in MB (default 256)")
     s.add_argument("--max-body-mb", type=float, default=512, help="largest request body in MB (default 512)")
+    s.add_argument("--max-json-mb", type=float, default=512,
+                   help="largest estimated size of a request's parsed JSON in MB (default 512)")
+    s.add_argument("--max-response-mb", type=float, default=256, help="largest answer in MB (default 256)")
+    s.add_argument("--max-queued-mb", type=float, default=None,
+                   help="request bodies the server process holds at once, in MB (default 2 × --max-body-mb)")
     s.add_argument("--report-dir", default=report.DEFAULT_OUT,
                    help=f"folder whose report.html is served at /report/ (default ./{report.DEFAULT_OUT}, "
                         "where `ghserver demo` writes)")
     s.add_argument("--workers", type=int, default=None,
                    help="solver processes (default: one per core; 0 solves inside the server process)")
     s.add_argument("--solve-timeout", type=float, default=90.0, help="seconds a solve may run (default 90)")
-    s.add_argument("--memory-limit-mb", type=float, default=0, help="memory cap per solver process (POSIX; 0: none)")
+    s.add_argument("--memory-limit-mb", type=float, default=None,
+                   help="memory cap per solver process (POSIX; default 60%% of the machine's memory shared by the "
+                        "solver processes, at least 1024; 0: none)")
     s.add_argument("--max-vertices", type=int, default=5_000_000, help="largest mesh accepted (default 5e6)")
     s.add_argument("--max-faces", type=int, default=5_000_000, help="largest mesh accepted (default 5e6)")
+    s.add_argument("--max-request-vertices", type=int, default=None,
+                   help="vertices of all meshes of one request together (default: --max-vertices)")
+    s.add_argument("--max-request-faces", type=int, default=None,
+                   help="faces of all meshes of one request together (default: --max-faces)")
     s.add_argument("--api-key", default=None, help="require this key on solves (RhinoComputeKey header)")
     s.add_argument("--no-auth", action="store_true", help="allow a non-loopback --host without an API key")
+    s.add_argument("--allowed-hosts", action="append", metavar="NAME[,NAME]",
+                   help="more host names requests may name (Host and Origin), e.g. a reverse proxy's; '*' turns "
+                        "the cross-site check of Host/Origin off (default: loopback names, the bound address)")
+    s.add_argument("--connection-limit", type=int, default=None,
+                   help="open connections at most (default 1000; 500 on Windows)")
+    s.add_argument("--channel-timeout", type=float, default=120.0,
+                   help="seconds an idle connection stays open (default 120; 10 once half the limit is in use)")
+    s.add_argument("--request-timeout", type=float, default=30.0,
+                   help="seconds a request's headers may take to arrive (default 30; bodies at >= 64 kB/s)")
     s.add_argument("--components", default="ghserver.endpoints:build_registry", metavar="MODULE:FUNCTION",
                    help="function returning the component Registry to serve (default: the published components)")
     s.add_argument("--reuse-port", action="store_true",

@@ -13,8 +13,10 @@ name.
 """
 from __future__ import annotations
 
+import binascii
 import json
 import logging
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +39,90 @@ class DecodeError(ValueError):
     """A geometry blob could not be decoded into the expected type."""
 
 
+class TooLargeError(DecodeError):
+    """A geometry blob declares more than the server's limits allow; refused before it is decoded (HTTP 413).
+
+    ``key`` names the limit (``max_vertices``, ``max_faces``, ``max_inflated_mb``).
+    """
+
+    status = 413
+
+    def __init__(self, message: str, key: str):
+        super().__init__(message)
+        self.key = key
+
+
+#: bytes a rhino3dm decode may inflate from compressed buffers, per allowed vertex of the request (double and float
+#: vertices, normals, texture coordinates, curvatures, colours, surface parameters: 92 bytes; rounded up)
+INFLATED_BYTES_PER_VERTEX = 100
+_ZLIB_BUFFER = b"\x01" + struct.pack("<I", 0x40008000)  # method byte 1 + the anonymous chunk holding the stream
+
+
+def inflated_size(raw: bytes) -> int:
+    """Upper bound of the bytes openNURBS inflates when reading the archive ``raw``.
+
+    Every zlib-compressed buffer of an openNURBS archive is written as ``uint32 size, uint32 crc, 0x01`` followed
+    by an anonymous chunk (typecode 0x40008000, int64 length) whose body starts with a zlib header, and the
+    reader allocates ``size`` bytes for it. Summing ``size`` over every occurrence of that byte pattern bounds
+    the memory a decode inflates to (an unrelated occurrence only adds to the bound), without inflating anything.
+
+    >>> import zlib
+    >>> stream = zlib.compress(bytes(1000))
+    >>> inflated_size(struct.pack("<II", 1000, 0) + _ZLIB_BUFFER + struct.pack("<q", len(stream) + 4) + stream)
+    1000
+    """
+    total = 0
+    i = raw.find(_ZLIB_BUFFER, 8)
+    while i >= 0:
+        head = raw[i + 13:i + 15]
+        # zlib header: compression method 8 (deflate), window <= 32K, header checksum a multiple of 31
+        if len(head) == 2 and head[0] & 0x0F == 8 and head[0] >> 4 <= 7 and (head[0] << 8 | head[1]) % 31 == 0:
+            total += struct.unpack_from("<I", raw, i - 8)[0]
+        i = raw.find(_ZLIB_BUFFER, i + 1)
+    return total
+
+
+def check_inflated_size(blob: dict, limits: dict | None) -> None:
+    """Refuse (:class:`TooLargeError`) an archive whose compressed buffers would inflate past the limit."""
+    limit_mb = (limits or {}).get("max_inflated_mb")
+    if not limit_mb:
+        return
+    try:
+        raw = binascii.a2b_base64(blob["data"])
+    except (binascii.Error, ValueError):
+        raise DecodeError("geometry data field 'data' is not base64") from None
+    size = inflated_size(raw)
+    if size > limit_mb * 2**20:
+        raise TooLargeError(f"geometry data would inflate to {size / 2**20:.0f} MB, more than the server's limit of "
+                            f"{limit_mb:g} MB for one request (ghserver serve --max-vertices)", "max_inflated_mb")
+
+
+def _limit_flag(key: str) -> str:
+    return {"max_vertices": "--max-vertices", "max_faces": "--max-faces"}.get(key, key)
+
+
+def check_mesh_counts(counts: tuple[int, int] | None, limits: dict | None) -> None:
+    """Refuse (:class:`TooLargeError`) declared ``(vertices, faces)`` beyond ``max_vertices`` / ``max_faces``."""
+    if counts is None:
+        return
+    for count, what, key in ((counts[0], "vertices", "max_vertices"), (counts[1], "faces", "max_faces")):
+        limit = (limits or {}).get(key)
+        if limit and count > limit:
+            raise TooLargeError(f"{count} {what} is more than the server's limit of {limit} "
+                                f"(ghserver serve {_limit_flag(key)})", key)
+
+
+def mesh_counts(data) -> tuple[int, int] | None:
+    """Vertex and face counts an encoded mesh declares (JSON text or dict), without decoding it; ``None`` when
+    they cannot be read cheaply (not an ON_Mesh archive this server recognises)."""
+    if _onmesh is None:
+        return None
+    try:
+        return _onmesh.mesh_counts(parse_blob(data))
+    except DecodeError:
+        return None
+
+
 # ----------------------------------------------------------------------------------------------
 # CommonObject JSON
 
@@ -51,6 +137,8 @@ def parse_blob(data) -> dict:
             data = json.loads(data)
         except json.JSONDecodeError as exc:
             raise DecodeError(f"geometry data is not JSON ({exc.msg} at position {exc.pos})") from None
+        except (ValueError, RecursionError) as exc:  # an integer of more than 4300 digits, deep nesting
+            raise DecodeError(f"geometry data is not an encoded Rhino object ({type(exc).__name__})") from None
     if not isinstance(data, dict):
         raise DecodeError(f"geometry data must be an encoded Rhino object, got {type(data).__name__}")
     missing = [k for k in ("archive3dm", "opennurbs", "data") if k not in data]
@@ -67,9 +155,14 @@ def parse_blob(data) -> dict:
     return data
 
 
-def decode_object(data):
-    """Decode an encoded Rhino object (JSON text or dict) with rhino3dm; never returns None."""
+def decode_object(data, limits: dict | None = None):
+    """Decode an encoded Rhino object (JSON text or dict) with rhino3dm; never returns None.
+
+    With ``limits`` (``max_inflated_mb``), an archive whose compressed buffers would inflate past it is refused
+    (:class:`TooLargeError`) before rhino3dm reads it.
+    """
     blob = parse_blob(data)
+    check_inflated_size(blob, limits)
     try:
         obj = rhino3dm.CommonObject.Decode(blob)
     except Exception as exc:  # rhino3dm raises RuntimeError/TypeError on malformed fields
@@ -97,22 +190,34 @@ def mesh_to_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-def decode_mesh(data) -> tuple[np.ndarray, np.ndarray]:
+def decode_mesh(data, limits: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(V, F)`` from an encoded Rhino mesh (JSON text or dict).
+
+    ``limits`` (``max_vertices``, ``max_faces``, ``max_inflated_mb``) are checked on the counts the archive
+    declares, before anything is inflated or allocated; what the fast reader refuses for its size (or for
+    running out of memory) is never handed to the rhino3dm fallback.
 
     Raises
     ------
+    TooLargeError
+        The mesh declares more than ``limits`` allow.
     DecodeError
         Not JSON, not a Rhino object, corrupt, or not a mesh.
     """
     blob = parse_blob(data)
     if _onmesh is not None:
-        arrays = _onmesh.read_mesh(blob)
+        try:
+            arrays = _onmesh.read_mesh(blob, limits)
+        except _onmesh.TooLarge as exc:
+            raise TooLargeError(f"{exc.count} {exc.what} is more than the server's limit of {exc.limit} "
+                                f"(ghserver serve {_limit_flag(exc.key)})", exc.key) from None
         if arrays is not None:
             return arrays
-    obj = decode_object(blob)
+        check_mesh_counts(_onmesh.mesh_counts(blob), limits)
+    obj = decode_object(blob, limits)
     if not isinstance(obj, rhino3dm.Mesh):
         raise DecodeError(f"expected a Mesh, got a {type(obj).__name__}")
+    check_mesh_counts((len(obj.Vertices), len(obj.Faces)), limits)
     return mesh_to_arrays(obj)
 
 
@@ -202,8 +307,8 @@ def curve_to_value(obj):
     return NurbsCurve(degree=int(nc.Degree), points=P, weights=w, knots=knots, periodic=bool(nc.IsPeriodic))
 
 
-def decode_curve(data):
-    return curve_to_value(decode_object(data))
+def decode_curve(data, limits: dict | None = None):
+    return curve_to_value(decode_object(data, limits))
 
 
 def value_to_curve(value):
@@ -229,9 +334,9 @@ def encode_curve(value) -> str:
     return encode_object(value_to_curve(value))
 
 
-def decode_surface(data) -> NurbsSurface:
+def decode_surface(data, limits: dict | None = None) -> NurbsSurface:
     """A :class:`NurbsSurface` from an encoded NurbsSurface, Surface or one-face Brep."""
-    obj = decode_object(data)
+    obj = decode_object(data, limits)
     if isinstance(obj, rhino3dm.Brep):
         if len(obj.Faces) != 1:
             raise DecodeError(f"expected a surface, got a Brep with {len(obj.Faces)} faces")
@@ -299,9 +404,9 @@ def is_rhino_object(value) -> bool:
     return isinstance(value, (rhino3dm.CommonObject, rhino3dm.Point3d, rhino3dm.Vector3d))
 
 
-def decode_point_object(data) -> np.ndarray:
+def decode_point_object(data, limits: dict | None = None) -> np.ndarray:
     """Point from an encoded ``Rhino.Geometry.Point`` (what the Geometry param sends for points)."""
-    obj = decode_object(data)
+    obj = decode_object(data, limits)
     if isinstance(obj, rhino3dm.Point):
         loc = obj.Location
         return np.array([loc.X, loc.Y, loc.Z])

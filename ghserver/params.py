@@ -18,7 +18,20 @@ from ghserver import convert
 
 
 class ParamError(ValueError):
-    """An input item cannot be read as its declared kind (message without the input name)."""
+    """An input item cannot be read as its declared kind (message without the input name).
+
+    ``status`` is the HTTP code: 400, or 413 when the item declares more than the server's limits allow.
+    """
+
+    status = 400
+
+    def __init__(self, message: str, status: int = 400):
+        super().__init__(message)
+        self.status = status
+
+
+def _geometry_error(exc: convert.DecodeError) -> ParamError:
+    return ParamError(str(exc), getattr(exc, "status", 400))
 
 
 # .NET type names written for outputs (hops-protocol.md §3, the "Output type Hops can decode" column)
@@ -46,7 +59,7 @@ def _scalar_text(data) -> Any:
         s = data.strip()
         try:
             return json.loads(s)
-        except (json.JSONDecodeError, RecursionError):
+        except (ValueError, RecursionError):  # not JSON, or an integer of more than 4300 digits
             return s
     return data
 
@@ -102,7 +115,7 @@ def decode_text(data) -> str:
     if isinstance(data, str):
         try:
             v = json.loads(data)
-        except json.JSONDecodeError:
+        except (ValueError, RecursionError):  # not JSON, an integer of more than 4300 digits, deep nesting
             return data
         return v if isinstance(v, str) else data
     if isinstance(data, (int, float, bool)):
@@ -134,18 +147,18 @@ def _json_value(data):
     if isinstance(data, str):
         try:
             return json.loads(data)
-        except json.JSONDecodeError:
+        except (ValueError, RecursionError):  # JSONDecodeError, an integer of more than 4300 digits, deep nesting
             raise ParamError(f"expected JSON, got {_short(data)}") from None
     return data
 
 
-def decode_point(data) -> np.ndarray:
+def decode_point(data, limits: dict | None = None) -> np.ndarray:
     v = _json_value(data)
     if isinstance(v, dict) and "archive3dm" in v:
         try:
-            return convert.decode_point_object(v)
+            return convert.decode_point_object(v, limits)
         except convert.DecodeError as exc:
-            raise ParamError(str(exc)) from None
+            raise _geometry_error(exc) from None
     return _xyz(v, "point")
 
 
@@ -183,14 +196,14 @@ def decode_plane(data) -> Plane:
     return Plane(origin, x, y, np.cross(x, y))
 
 
-def decode_line(data) -> np.ndarray:
+def decode_line(data, limits: dict | None = None) -> np.ndarray:
     v = _json_value(data)
     if isinstance(v, dict):
         low = {str(k).lower(): val for k, val in v.items()}
         if "from" in low and "to" in low:
             return np.stack([_xyz(low["from"], "line start"), _xyz(low["to"], "line end")])
         if "archive3dm" in low:
-            curve = decode_curve(v)
+            curve = decode_curve(v, limits)
             if isinstance(curve, np.ndarray) and len(curve) == 2:
                 return curve
             raise ParamError("expected a line, got a curve that is not a single segment")
@@ -199,32 +212,32 @@ def decode_line(data) -> np.ndarray:
     raise ParamError(f"expected a line with From and To, got {_short(data)}")
 
 
-def decode_curve(data):
+def decode_curve(data, limits: dict | None = None):
     try:
-        value = convert.decode_curve(data)
+        value = convert.decode_curve(data, limits)
     except convert.DecodeError as exc:
-        raise ParamError(str(exc)) from None
+        raise _geometry_error(exc) from None
     P = value.points if isinstance(value, NurbsCurve) else value
     if not np.all(np.isfinite(P)):
         raise ParamError("curve has a NaN or infinite control point")
     return value
 
 
-def decode_surface(data) -> NurbsSurface:
+def decode_surface(data, limits: dict | None = None) -> NurbsSurface:
     try:
-        value = convert.decode_surface(data)
+        value = convert.decode_surface(data, limits)
     except convert.DecodeError as exc:
-        raise ParamError(str(exc)) from None
+        raise _geometry_error(exc) from None
     if not np.all(np.isfinite(value.points)):
         raise ParamError("surface has a NaN or infinite control point")
     return value
 
 
-def decode_mesh(data) -> tuple[np.ndarray, np.ndarray]:
+def decode_mesh(data, limits: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     try:
-        V, F = convert.decode_mesh(data)
+        V, F = convert.decode_mesh(data, limits)
     except convert.DecodeError as exc:
-        raise ParamError(str(exc)) from None
+        raise _geometry_error(exc) from None
     bad = ~np.isfinite(V).all(axis=1)
     if bad.any():
         raise ParamError(f"mesh vertex {int(np.argmax(bad))} has a NaN or infinite coordinate")
@@ -250,11 +263,25 @@ DECODERS = {
 }
 
 
-def decode_item(kind: str, item) -> Any:
-    """Decode one tree item (``{"type", "data"}`` or a bare value) as ``kind``."""
-    data = item.get("data") if isinstance(item, dict) and "data" in item else item
+GEOMETRY_KINDS = ("Point", "Line", "Curve", "Surface", "Mesh")  # decoders that take the server's size limits
+
+
+def item_data(item):
+    """The ``data`` of a tree item (``{"type", "data"}``), or the item itself when a client sent a bare value."""
+    return item.get("data") if isinstance(item, dict) and "data" in item else item
+
+
+def decode_item(kind: str, item, limits: dict | None = None) -> Any:
+    """Decode one tree item (``{"type", "data"}`` or a bare value) as ``kind``.
+
+    ``limits`` (``max_vertices``, ``max_faces``, ``max_inflated_mb``) bound what geometry may decode to; an item
+    beyond them raises :class:`ParamError` with status 413 before it is decoded.
+    """
+    data = item_data(item)
     if data is None:
         raise ParamError("item has no data")
+    if kind in GEOMETRY_KINDS:
+        return DECODERS[kind](data, limits)
     return DECODERS[kind](data)
 
 

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from components.core.errors import InputError
+from ghserver import convert
 from ghserver import params as P
 from ghserver.registry import Component, Registry
 
@@ -164,7 +165,85 @@ def _input_trees(component: Component, req: SolveRequest) -> dict[str, dict[tupl
 # values of one input
 
 
-DEFAULT_LIMITS = {"max_vertices": 5_000_000, "max_faces": 5_000_000}
+DEFAULT_LIMITS = {
+    "max_vertices": 5_000_000,  # per mesh
+    "max_faces": 5_000_000,
+    "max_request_vertices": 5_000_000,  # all meshes of one request together
+    "max_request_faces": 5_000_000,
+    "max_json_mb": 512,  # estimated size of the request's JSON once parsed
+    "max_response_mb": 256,  # the answer's JSON
+}
+LIMIT_FLAGS = {key: "--" + key.replace("_", "-") for key in DEFAULT_LIMITS}
+#: memory of one parsed JSON token (``{``, ``[``, ``,`` or ``:``) at most, in bytes: an empty dict in a list takes
+#: 72 bytes for its 2 tokens, a one-key dict 67 per token, a dict's key and value 77 (measured on CPython 3.11)
+JSON_BYTES_PER_TOKEN = 80
+
+
+def resolve_limits(limits: dict | None) -> dict:
+    """``limits`` completed with :data:`DEFAULT_LIMITS` and the derived ``max_inflated_mb`` (the compressed
+    buffers a request's geometry may inflate to: 100 bytes per vertex of ``max_request_vertices``)."""
+    out = dict(DEFAULT_LIMITS)
+    out.update({k: v for k, v in (limits or {}).items() if v is not None})
+    if "max_inflated_mb" not in (limits or {}):
+        per_request = out.get("max_request_vertices") or out.get("max_vertices")
+        out["max_inflated_mb"] = per_request * convert.INFLATED_BYTES_PER_VERTEX / 2**20 if per_request else None
+    return out
+
+
+def too_large(message: str, key: str, limit) -> RequestError:
+    """A 413 that names the limit and the ``ghserver serve`` option changing it."""
+    value = f"{limit:g} MB" if key.endswith("_mb") else f"{int(limit)}"
+    return RequestError(f"{message} the server's limit of {value} (ghserver serve {LIMIT_FLAGS.get(key, key)})",
+                        status=413)
+
+
+def json_tokens(raw: bytes) -> int:
+    """Structural tokens of a JSON text: ``{``, ``[``, ``,`` and ``:`` (those inside strings count too: an upper
+    bound of the containers and items ``json.loads`` builds)."""
+    return raw.count(b"{") + raw.count(b"[") + raw.count(b",") + raw.count(b":")
+
+
+def check_json_size(raw: bytes, limits: dict | None = None) -> None:
+    """Refuse (413) a body whose parsed JSON would take more than ``max_json_mb``, before parsing it.
+
+    ``json.loads`` needs about its text's size for strings (Hops' geometry) but up to 26 times the text for small
+    containers (``[{},{},…]``); the estimate is the text's size plus :data:`JSON_BYTES_PER_TOKEN` per structural
+    token, counted at C speed.
+    """
+    limit = resolve_limits(limits).get("max_json_mb")
+    if not limit:
+        return
+    estimate = len(raw) + JSON_BYTES_PER_TOKEN * json_tokens(raw)
+    if estimate > limit * 2**20:
+        raise too_large(f"the request's JSON would take about {estimate / 2**20:.0f} MB once parsed, more than",
+                        "max_json_mb", limit)
+
+
+def _check_declared_sizes(component: Component, trees: dict[str, dict[tuple, list]], limits: dict) -> None:
+    """Refuse (413) meshes over the per-mesh limits, and requests whose meshes add up past the per-request
+    budget, from the counts each archive declares in its first bytes, before any item is decoded."""
+    totals = [0, 0]
+    for p in component.inputs:
+        if p.kind != "Mesh" or p.name not in trees:
+            continue
+        for path, items in trees[p.name].items():
+            for j, item in enumerate(items):
+                counts = convert.mesh_counts(P.item_data(item))
+                if counts is None:
+                    continue  # not readable cheaply: the decoder checks it (and refuses it) before decoding
+                where = f" item {j}" if len(items) > 1 else ""
+                branch = f" branch {format_path(path)}" if len(trees[p.name]) > 1 else ""
+                for count, what, key in ((counts[0], "vertices", "max_vertices"), (counts[1], "faces", "max_faces")):
+                    limit = limits.get(key)
+                    if limit and count > limit:
+                        raise too_large(f"{p.name}{branch}{where}: {count} {what} is more than", key, limit)
+                totals[0] += counts[0]
+                totals[1] += counts[1]
+    for total, what, key in ((totals[0], "vertices", "max_request_vertices"),
+                             (totals[1], "faces", "max_request_faces")):
+        limit = limits.get(key)
+        if limit and total > limit:
+            raise too_large(f"the request's meshes have {total} {what} together, more than", key, limit)
 
 
 def _check_size(param, value, limits: dict) -> None:
@@ -185,11 +264,11 @@ def _decode_items(param, items: list, limits: dict | None = None) -> list:
     out = []
     for j, item in enumerate(items):
         try:
-            out.append(P.decode_item(param.kind, item))
+            out.append(P.decode_item(param.kind, item, limits))
             _check_size(param, out[-1], limits)
         except P.ParamError as exc:
             where = f" item {j}" if len(items) > 1 else ""
-            raise RequestError(f"{param.name}{where}: {exc}") from None
+            raise RequestError(f"{param.name}{where}: {exc}", status=exc.status) from None
         except RecursionError:
             raise RequestError(f"{param.name}: item {j} is nested too deeply") from None
     return out
@@ -288,9 +367,24 @@ def _check_list_lengths(component: Component, kwargs: dict):
             raise RequestError(f"{p.name}: needs at least one item")
 
 
+def _estimated_size(kind: str, value) -> int:
+    """Bytes a Mesh output will take in the answer's JSON (raw buffers in base64), before it is encoded."""
+    if kind == "Mesh" and isinstance(value, (tuple, list)) and len(value) >= 2:
+        return (36 * len(value[0]) + 16 * len(value[1])) * 4 // 3
+    return 0
+
+
 def run(component: Component, req: SolveRequest, limits: dict | None = None) -> dict:
-    """Solve a parsed request; raises :class:`RequestError` for bad input. Returns the response dict."""
+    """Solve a parsed request; raises :class:`RequestError` for bad input. Returns the response dict.
+
+    Sizes are checked before the work: declared mesh counts per mesh and per request before any item is decoded,
+    the answer's size while it is encoded (413 naming the limit).
+    """
+    limits = resolve_limits(limits)
     trees = _input_trees(component, req)
+    _check_declared_sizes(component, trees, limits)
+    max_response = (limits.get("max_response_mb") or 0) * 2**20
+    out_bytes = 0
     ctx = _context(component, req)
     out_trees: list[dict[str, list]] = [{} for _ in component.outputs]
     warnings: list[str] = []
@@ -312,9 +406,20 @@ def run(component: Component, req: SolveRequest, limits: dict | None = None) -> 
             if value is None:  # nothing to send for this output (an empty tree)
                 continue
             try:
-                items = [P.encode_item(p.kind, v) for v in P.output_items(p.kind, p.access, value)]
+                items = []
+                for v in P.output_items(p.kind, p.access, value):
+                    out_bytes += _estimated_size(p.kind, v)
+                    if max_response and out_bytes > max_response:
+                        break
+                    items.append(P.encode_item(p.kind, v))
+                    out_bytes += len(items[-1]["data"]) + 40 - _estimated_size(p.kind, v)
+                    if max_response and out_bytes > max_response:
+                        break
             except P.OutputError as exc:
                 raise P.OutputError(f"output {p.name!r} of {component.uri}: {exc}") from None
+            if max_response and out_bytes > max_response:
+                raise too_large(f"the answer of {component.uri} would be more than", "max_response_mb",
+                                limits["max_response_mb"])
             if n_iter > 1 and p.access != "item":
                 key = format_path(path + (i,))
             else:
@@ -349,7 +454,8 @@ def solve(registry: Registry, body: Any, uri: str | None = None, limits: dict | 
         return exc.status, error_body(exc.errors), comp_uri
     except MemoryError:
         log.exception("out of memory in %s", comp_uri)
-        return 500, error_body([f"{comp_uri}: out of memory"]), comp_uri
+        return 500, error_body([f"{comp_uri}: out of memory: the solve needed more memory than a solver process may "
+                                "use (ghserver serve --memory-limit-mb), send a smaller input"]), comp_uri
     except Exception as exc:  # unexpected: one line to the client, traceback to the log
         log.exception("solve of %s failed", comp_uri or "?")
         msg = str(exc).splitlines()[0] if str(exc) else ""
@@ -363,15 +469,26 @@ def solve_bytes(registry: Registry, raw: bytes, uri: str | None = None,
     ``info`` has ``cachesolve`` (the request's flag) and ``inputs`` (a one-line size summary for the access log).
     """
     try:
+        check_json_size(raw, limits)
         body = json.loads(raw)
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
-        msg = getattr(exc, "msg", type(exc).__name__)
+    except RequestError as exc:
+        return exc.status, json.dumps(error_body(exc.errors)).encode("utf-8"), uri or "", {"cachesolve": False,
+                                                                                            "inputs": ""}
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, UnicodeDecodeError, integers of > 4300 digits
+        msg = getattr(exc, "msg", None) or str(exc).splitlines()[0][:200] or type(exc).__name__
         resp = error_body([f"request body is not valid JSON: {msg}"])
         return 400, json.dumps(resp).encode("utf-8"), uri or "", {"cachesolve": False, "inputs": ""}
     status, resp, comp_uri = solve(registry, body, uri, limits=limits)
-    info = {"cachesolve": bool(body.get("cachesolve", True)) if isinstance(body, dict) else False,
-            "inputs": describe_inputs(body)}
-    return status, json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8"), comp_uri, info
+    try:
+        info = {"cachesolve": bool(body.get("cachesolve", True)) if isinstance(body, dict) else False,
+                "inputs": describe_inputs(body)}
+        del body
+        return status, json.dumps(resp, ensure_ascii=False, allow_nan=False).encode("utf-8"), comp_uri, info
+    except Exception as exc:  # MemoryError, a NaN that slipped through: still one JSON line, never a crash
+        log.exception("encoding the answer of %s failed", comp_uri or "?")
+        resp = error_body([f"internal error in {comp_uri or 'solve'}: the answer could not be encoded "
+                           f"({type(exc).__name__})"])
+        return 500, json.dumps(resp).encode("utf-8"), comp_uri, {"cachesolve": False, "inputs": ""}
 
 
 def describe_inputs(body: Any) -> str:

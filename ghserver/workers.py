@@ -41,6 +41,28 @@ def _rss_mb() -> float:
         return 0.0
 
 
+def peak_rss_mb(pid: int | str = "self") -> float:
+    """Peak resident memory (VmHWM) of a process in MB, from Linux /proc; 0 where unavailable."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except (OSError, ValueError):
+        pass
+    return 0.0
+
+
+def reset_peak_rss(pid: int | str = "self") -> bool:
+    """Reset a process's peak resident memory to its current one (Linux >= 4.0, own processes); False if not."""
+    try:
+        with open(f"/proc/{pid}/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
 def _limit_memory(mb: float | None) -> None:
     if not mb or sys.platform == "win32":
         return
@@ -69,8 +91,16 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
             raw = conn.recv_bytes()
         except (EOFError, OSError):
             return
-        status, text, uri, info = protocol.solve_bytes(registry, raw, header.get("uri"), limits=limits)
-        conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb(), **info}).encode())
+        reset_peak_rss()
+        try:
+            status, text, uri, info = protocol.solve_bytes(registry, raw, header.get("uri"), limits=limits)
+        except Exception as exc:  # solve_bytes never raises; a worker must outlive anything that still does
+            log.exception("solve failed in a worker")
+            status, uri, info = 500, header.get("uri") or "", {}
+            text = json.dumps(protocol.error_body([f"internal error: {type(exc).__name__}"])).encode()
+        del raw
+        conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb(), "peak_mb": peak_rss_mb(),
+                                    **info}).encode())
         conn.send_bytes(text)
 
 
@@ -167,6 +197,16 @@ class WorkerPool:
         if not self._closed:
             self._idle.put(self._spawn())
 
+    def _idle_worker(self, wait: float) -> _Worker:
+        """An idle worker that is alive: one that died while idle (killed, out of memory) is replaced first."""
+        deadline = time.monotonic() + wait
+        while True:
+            w = self._idle.get(timeout=max(0.0, deadline - time.monotonic()))
+            if w.process.is_alive():
+                return w
+            log.warning("worker %d died while idle (exit code %s): replaced", w.process.pid, w.process.exitcode)
+            self._replace(w)
+
     def pids(self) -> list[int]:
         with self._lock:
             return [w.process.pid for w in self._all]
@@ -185,7 +225,7 @@ class WorkerPool:
         if self._closed:
             return err(503, "server is shutting down")
         try:
-            w = self._idle.get(timeout=wait if wait is not None else self.queue_timeout)
+            w = self._idle_worker(wait if wait is not None else self.queue_timeout)
         except queue.Empty:
             return err(503, "all solver processes are busy; try again")
         try:
@@ -217,7 +257,7 @@ class WorkerPool:
             self._replace(w)
         else:
             self._idle.put(w)
-        info = {k: header[k] for k in ("cachesolve", "inputs") if k in header}
+        info = {k: header[k] for k in ("cachesolve", "inputs", "peak_mb") if k in header}
         return int(header["status"]), text, header.get("uri", uri or ""), info
 
     def close(self) -> None:

@@ -291,6 +291,29 @@ def test_analysis_display_mesh(mixed_strip, sphere_cap):
             assert np.all(np.isfinite(out.values)) and out.legend_min <= out.legend_max
 
 
+def test_analysis_closeness_colours_are_distances_to_the_reference_surface():
+    """Closeness is the distance to the nearest point of the reference *surface*: over one large flat quad every
+    vertex's value is its height (a vertex-to-vertex distance would be far larger), and each display corner
+    carries the colour of its vertex's value on the legend."""
+    from components.core.colors import colormap
+
+    V, F = quad_grid(8, 6, 4.0, 3.0)
+    V[:, 2] = 0.02 + 0.3 * V[:, 0] / 4.0 + 0.05 * V[:, 1] / 3.0  # heights 0.02 .. 0.37, all different rows
+    ref = (np.array([[-10.0, -10.0, 0.0], [14.0, -10.0, 0.0], [14.0, 13.0, 0.0], [-10.0, 13.0, 0.0]]),
+           np.array([[0, 1, 2, 3]]))
+    r = M.analysis((V, F), "closeness", reference=ref)
+    assert r.element == "vertex" and r.indices.tolist() == list(range(len(V)))
+    np.testing.assert_allclose(np.abs(r.values), V[:, 2], rtol=0, atol=1e-12)
+    assert (r.legend_min, r.legend_max) == pytest.approx((r.values.min(), r.values.max()))
+    VD, FD, C = r.display
+    corner_vertex = F.reshape(-1)  # quads: the display's corners in face order
+    np.testing.assert_allclose(VD, V[corner_vertex])
+    expected = colormap(r.values, r.legend_min, r.legend_max)[corner_vertex]
+    assert np.array_equal(C, expected)
+    low, high = np.argmin(V[:, 2]), np.argmax(V[:, 2])
+    assert not np.array_equal(expected[corner_vertex == low][0], expected[corner_vertex == high][0])
+
+
 def test_report_table(hypar_grid):
     table = M.metrics_report(*hypar_grid)
     assert all(np.isfinite(v) for v in table.values())

@@ -127,11 +127,20 @@ def test_lines_stop_near_singularities():
     V, T, _ = sample_mesh("canopy", 40)
     fld = smooth_frame_field(V, T)
     assert len(fld.singularities) > 0
-    lines = evenly_spaced_streamlines(V, T, fld.U, fld.W, family=2, separation=2.0, singularity_radius=0.6)
-    P = np.concatenate(lines)
     S = V[fld.singularities]
-    d = np.linalg.norm(P[:, None, :] - S[None], axis=2).min(axis=0)
-    assert d.min() > 0.6 - 0.8  # never deeper than one step inside the stop radius
+    step = min(0.25 * 2.0, 0.5 * np.linalg.norm(V[T[:, [1, 2, 0]]] - V[T], axis=2).mean())  # the tracing step
+    nearest = {}
+    for radius in (0.6, 1.2, 2.0):
+        lines = evenly_spaced_streamlines(V, T, fld.U, fld.W, family=2, separation=2.0, singularity_radius=radius)
+        assert max(np.linalg.norm(np.diff(L, axis=0), axis=1).max() for L in lines) <= step + 1e-9
+        P = np.concatenate(lines)
+        d = np.linalg.norm(P[:, None, :] - S[None], axis=2).min(axis=0)  # closest approach to each singularity
+        # never deeper than one step inside the stop radius ...
+        assert d.min() >= radius - step, (radius, d.min())
+        # ... and the lines reaching a singularity stop because of it: every one is approached inside the radius
+        assert d.max() < radius, (radius, d.max())
+        nearest[radius] = d
+    assert nearest[2.0].min() > nearest[0.6].max()  # a larger radius stops the lines farther out
 
 
 def test_hole_and_real_mesh():

@@ -52,8 +52,8 @@ def client(app):
 class LiveServer:
     """A waitress server in a thread; stopped from its own loop thread so no socket is closed under select()."""
 
-    def __init__(self, app, threads=8):
-        self.server = make_server(app, "127.0.0.1", 0, threads=threads)
+    def __init__(self, app, threads=8, **kw):
+        self.server = make_server(app, "127.0.0.1", 0, threads=threads, **kw)
         self.port = self.server.effective_port
         self.url = f"http://127.0.0.1:{self.port}"
         self._stop = threading.Event()
@@ -62,7 +62,7 @@ class LiveServer:
     def _run(self):
         srv = self.server
         while not self._stop.is_set():
-            srv.asyncore.loop(timeout=0.05, map=srv._map, count=1)
+            srv.asyncore.loop(timeout=0.05, map=srv._map, count=1, use_poll=srv.adj.asyncore_use_poll)
         srv.close()
 
     def __enter__(self):

@@ -421,9 +421,9 @@ def test_a_repeated_branch_is_decoded_once(client, monkeypatch):
     calls = []
     real = params.decode_item
 
-    def counting(kind, item):
+    def counting(kind, item, limits=None):
         calls.append(kind)
-        return real(kind, item)
+        return real(kind, item, limits)
 
     monkeypatch.setattr(params, "decode_item", counting)
     V, Q = quad_grid(3, 3)

@@ -118,6 +118,32 @@ def test_api_key_required_on_solves_but_not_on_metadata(echo_registry):
     assert client.post("/solve", json=body, headers={"Authorization": "Bearer s3cret"}).status_code == 200
 
 
+def test_api_key_edge_cases(echo_registry, monkeypatch):
+    client = create_app(Config(api_key="s3cret"), registry=echo_registry).test_client()
+    body = hops_body("echo/scale", hops_tree("x", ["1"]))
+
+    def status(**headers):
+        return client.post("/solve", json=body, headers=headers).status_code
+
+    # compute_rhino3d sends its own authToken as the Bearer token beside the key: either matching is enough
+    assert status(RhinoComputeKey="s3cret", Authorization="Bearer not-this-one") == 200
+    assert status(RhinoComputeKey="wrong", Authorization="Bearer s3cret") == 200
+    assert status(RhinoComputeKey="wrong", Authorization="Bearer wrong") == 401
+    # empty credentials never match, whatever their form
+    for headers in ({"RhinoComputeKey": ""}, {"Authorization": "Bearer "}, {"Authorization": "Bearer"},
+                    {"RhinoComputeKey": "", "Authorization": "Bearer  "}, {"Authorization": "s3cret"},
+                    {"RhinoComputeKey": "s3cret "}, {"RhinoComputeKey": "S3CRET"}):
+        assert status(**headers) == 401, headers
+    assert status(Authorization="bearer s3cret") == 200  # the scheme is case-insensitive
+    # an empty key configured is no key: the bind rule then refuses a non-loopback address without --no-auth
+    parse = build_parser().parse_args
+    with pytest.raises(SystemExit, match="API key"):
+        config_from_args(parse(["serve", "--host", "0.0.0.0", "--api-key", ""]))
+    monkeypatch.setenv("GHSERVER_API_KEY", "")
+    with pytest.raises(SystemExit, match="API key"):
+        config_from_args(parse(["serve", "--host", "0.0.0.0"]))
+
+
 def test_bind_rules():
     parse = build_parser().parse_args
     assert config_from_args(parse(["serve"])).api_key is None  # loopback: no key needed

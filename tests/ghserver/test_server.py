@@ -168,3 +168,34 @@ def test_real_request_against_real_server(live_server):
                       headers={"Content-Type": "application/json; charset=utf-8"}, timeout=30)
     assert r.status_code == 200 and r.headers["Content-Type"].startswith("application/json")
     assert [t["ParamName"] for t in r.json()["values"]] == ["Result", "Area"]
+
+
+def test_grafted_multi_item_request_end_to_end(live_server):
+    """Three meshes grafted in Grasshopper ({0;0}, {0;1}, {0;2}: one item per branch, as Hops sends a grafted
+    tree) and the same three as items of one branch: every answer lands on its own path with its own values."""
+    from components.core.measures import quad_planarity
+
+    meshes = []
+    for k in range(3):
+        V, Q = quad_grid(3 + k, 2)
+        V[:, 2] = 0.05 * (k + 1) * np.sin(3 * V[:, 0] + V[:, 1])
+        meshes.append((V, Q))
+    items = [{"type": "Rhino.Geometry.Mesh", "data": convert.encode_mesh(V, Q)} for V, Q in meshes]
+    grafted = {"ParamName": "mesh", "InnerTree": {f"{{0;{k}}}": [it] for k, it in enumerate(items)}}
+    for tree, paths in ((grafted, ["{0;0}", "{0;1}", "{0;2}"]),
+                        ({"ParamName": "mesh", "InnerTree": {"{0}": items}}, None)):
+        r = requests.post(f"{live_server.url}/solve", json=hops_body("metrics/planarity", tree), timeout=60)
+        assert r.status_code == 200, r.text
+        out = {t["ParamName"]: t["InnerTree"] for t in r.json()["values"]}
+        if paths is not None:  # one branch per mesh, the item output one value per branch
+            assert sorted(out["planarity"]) == paths and sorted(out["max_planarity"]) == paths
+            per_mesh = [out["planarity"][p] for p in paths]
+            maxima = [float(out["max_planarity"][p][0]["data"]) for p in paths]
+        else:  # items of one branch: the list output gets a sub-branch per item, the item output a list
+            assert sorted(out["planarity"]) == ["{0;0}", "{0;1}", "{0;2}"] and list(out["max_planarity"]) == ["{0}"]
+            per_mesh = [out["planarity"][f"{{0;{k}}}"] for k in range(3)]
+            maxima = [float(it["data"]) for it in out["max_planarity"]["{0}"]]
+        for (V, Q), got, mx in zip(meshes, per_mesh, maxima):
+            expected = quad_planarity(V, Q)
+            assert np.allclose([float(it["data"]) for it in got], expected, rtol=1e-12, atol=1e-15)
+            assert mx == pytest.approx(expected.max(), rel=1e-12)
