@@ -170,16 +170,17 @@ def _fabricate(args) -> int:
 
     import numpy as np
 
-    from components.core.mesh import read_mesh
     from components.fabrication.export import fabrication, write_csv, write_dxf
-    from ghserver.convert import write_3dm
+    from ghserver.convert import read_model, write_3dm
 
     logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines describe the DXF file's internals
     path = Path(args.mesh)
     tol = list(args.tolerance or [])
     sheet = args.sheet or (0.0, 0.0)
     try:
-        V, F = read_mesh(path)
+        V, F, notes = read_model(path, layer=args.layer, name=args.object)
+        for note in notes:
+            print(f"note: {note}")
         fab = fabrication(V, F, tolerance=tol[0] if tol else 0.0, tolerances=tol, mirror=not args.no_mirror,
                           sheet_width=sheet[0], sheet_height=sheet[1], gap=args.gap, method=args.method,
                           axes=args.axes, beam_height=args.beam_height, beam_width=args.beam_width,
@@ -271,7 +272,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=report.demo_command)
     fb = sub.add_parser("fabricate", help="flat panels on sheets, panel types, kinks, node axes and beams of a "
                                           "panelling: DXF, CSV cutting list and .3dm")
-    fb.add_argument("mesh", help="the panelling: an OBJ, OFF or PLY mesh file")
+    fb.add_argument("mesh", help="the panelling: a .3dm (one mesh), .stl (welded), .obj, .off or .ply file")
+    fb.add_argument("--layer", default=None, help="in a .3dm holding several meshes: the layer to use")
+    fb.add_argument("--object", default=None, help="in a .3dm holding several meshes: the object name")
     fb.add_argument("--out", default="fabrication", help="output folder (default ./fabrication)")
     fb.add_argument("--tolerance", type=float, nargs="+", default=None, metavar="T",
                     help="panel-type tolerance(s) in model units: types at the first, counts at all (default "

@@ -18,14 +18,17 @@ import json
 import logging
 import struct
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import rhino3dm
 
-from components.core.mesh import face_centroids, face_sizes, triangulate
+from components.core.errors import InputError
+from components.core.mesh import face_centroids, face_sizes, read_mesh, read_stl, triangulate
 from components.core.types import NurbsCurve, NurbsSurface
 from components.fabrication.nodes import beam_meshes
 from components.fabrication.panels import closed_polylines, placed_outlines
+from components.surfaces.generators import surface_mesh
 
 log = logging.getLogger(__name__)
 
@@ -482,4 +485,140 @@ def write_3dm(path, fab):
     path = Path(path)
     if not model.Write(str(path), 7):
         raise OSError(f"{path}: rhino3dm could not write the file")
+    return path
+
+
+# ----------------------------------------------------------------------------------------------
+# model files: .3dm in and out, and the reader the command line uses for every mesh format
+
+
+class ModelMesh(NamedTuple):
+    """A mesh read from a model file, with what the reader did to it."""
+
+    V: np.ndarray
+    F: np.ndarray
+    notes: tuple
+
+
+#: grid segments per direction when a .3dm surface is meshed (:func:`read_3dm`)
+SURFACE_SEGMENTS = 40
+
+
+def _object_label(model, obj) -> str:
+    attrs = obj.Attributes
+    layer = model.Layers[attrs.LayerIndex].FullPath if 0 <= attrs.LayerIndex < len(model.Layers) else "?"
+    kind = type(obj.Geometry).__name__
+    return f"{kind} {attrs.Name!r} on layer {layer!r}" if attrs.Name else f"{kind} on layer {layer!r}"
+
+
+def read_3dm(path, layer: str | None = None, name: str | None = None,
+             segments: int = SURFACE_SEGMENTS) -> ModelMesh:
+    """The mesh of the one mesh, NURBS surface or one-face Brep in a Rhino ``.3dm`` file.
+
+    A surface (or the untrimmed surface of a one-face Brep) is meshed exactly on the surface by
+    :func:`components.surfaces.generators.surface_mesh` with ``segments`` × ``segments`` grid cells. When the file
+    holds several such objects, ``layer`` (a layer's name or full path) and/or ``name`` (the object's name) pick one;
+    otherwise the error lists them.
+
+    Raises
+    ------
+    InputError
+        Not a readable .3dm file, no mesh or surface in it (after the filters), or several of them.
+    """
+    path = Path(path)
+    model = rhino3dm.File3dm.Read(str(path))
+    if model is None:
+        raise InputError("mesh", f"{path.name}: not a readable Rhino .3dm file")
+    found = []
+    for obj in model.Objects:
+        geo = obj.Geometry
+        if isinstance(geo, rhino3dm.Brep) and len(geo.Faces) != 1:
+            continue
+        if not isinstance(geo, (rhino3dm.Mesh, rhino3dm.Surface, rhino3dm.Brep)):
+            continue
+        attrs = obj.Attributes
+        lay = model.Layers[attrs.LayerIndex] if 0 <= attrs.LayerIndex < len(model.Layers) else None
+        if layer is not None and (lay is None or layer not in (lay.Name, lay.FullPath)):
+            continue
+        if name is not None and attrs.Name != name:
+            continue
+        found.append(obj)
+    picked = " matching " + " and ".join(f"{k} {v!r}" for k, v in (("--layer", layer), ("--object", name))
+                                         if v is not None) if (layer or name) else ""
+    if not found:
+        raise InputError("mesh", f"{path.name}: no mesh, NURBS surface or one-face Brep{picked} (of "
+                                 f"{len(model.Objects)} object(s) in the file)")
+    if len(found) > 1:
+        listed = "; ".join(_object_label(model, o) for o in found[:20])
+        raise InputError("mesh", f"{path.name}: {len(found)} meshes/surfaces{picked}, pick one with --layer and/or "
+                                 f"--object: {listed}")
+    obj = found[0]
+    geo = obj.Geometry
+    label = _object_label(model, obj)
+    if isinstance(geo, rhino3dm.Mesh):
+        V, F = mesh_to_arrays(geo)
+        return ModelMesh(V, F, (f"{path.name}: {label}, {len(V):,} vertices, {len(F):,} faces",))
+    surface = decode_surface(geo.Encode())
+    res = surface_mesh(surface, segments, segments)
+    V, T = res.mesh
+    note = (f"{path.name}: {label} meshed on the surface with {res.segments_u} × {res.segments_v} cells "
+            f"({len(V):,} vertices, {len(T):,} triangles)")
+    if isinstance(geo, rhino3dm.Brep):
+        note += "; the Brep face's trims are ignored (its whole underlying surface is meshed)"
+    return ModelMesh(V, T, (note,))
+
+
+def read_model(path, layer: str | None = None, name: str | None = None,
+               segments: int = SURFACE_SEGMENTS) -> ModelMesh:
+    """A mesh from any model file the command line accepts: ``.3dm`` (:func:`read_3dm`), ``.stl`` (welded,
+    :func:`components.core.mesh.read_stl`), ``.obj``, ``.off`` or ``.ply``.
+
+    ``layer`` and ``name`` only apply to ``.3dm`` files; an error says so for other formats.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".3dm":
+        return read_3dm(path, layer=layer, name=name, segments=segments)
+    if layer is not None or name is not None:
+        raise InputError("mesh", f"{path.name}: --layer and --object only apply to .3dm files")
+    if suffix == ".stl":
+        s = read_stl(path)
+        note = (f"{path.name}: {s.corners:,} STL corners welded into {len(s.V):,} vertices at {s.tolerance:.3g} "
+                f"(1e-6 × the bounding-box diagonal)")
+        if s.dropped:
+            note += f"; {s.dropped} triangle(s) collapsed by the weld were dropped"
+        return ModelMesh(s.V, s.F, (note,))
+    V, F = read_mesh(path)
+    return ModelMesh(V, F, ())
+
+
+def write_meshes_3dm(path, meshes, colours: dict | None = None) -> Path:
+    """Write meshes to a Rhino ``.3dm`` file, one layer per group.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    meshes : iterable of (layer, name, V, F)
+        Layers are created in the order they first appear; every mesh is one object named ``name`` (n-gons are
+        written as triangle fans).
+    colours : dict, optional
+        Layer name → RGBA colour.
+    """
+    model = rhino3dm.File3dm()
+    index = {}
+    for layer, name, V, F in meshes:
+        if layer not in index:
+            lay = rhino3dm.Layer()
+            lay.Name = layer
+            if colours and layer in colours:
+                lay.Color = colours[layer]
+            index[layer] = model.Layers.Add(lay)
+        a = rhino3dm.ObjectAttributes()
+        a.LayerIndex = index[layer]
+        a.Name = name
+        model.Objects.AddMesh(arrays_to_mesh(V, F), a)
+    path = Path(path)
+    if not model.Write(str(path), 7):
+        raise OSError(f"could not write {path}")
     return path

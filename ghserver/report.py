@@ -13,7 +13,9 @@
 * ``report.csv`` and ``report.json``: one row per (strategy, surface) with every metric and timing, the panel
   health of the candidate and of the final mesh (healthy, coverage, worst corner, shortest edge ÷ median, holes,
   violations) and the status; the JSON also records every image with the range of its colour bar;
-* ``meshes/*.obj``: the candidate and optimized meshes.
+* ``meshes/*.obj``: the candidate and optimized meshes;
+* ``results.3dm``: the same meshes in one Rhino file, one layer per strategy, each object named
+  ``"<surface> <stage>"``.
 
 Every result with a mesh also gets a small fabrication section (:func:`fabrication_summary` of its final mesh,
 ``"fabrication"`` in the JSON): the number of panel types at 1, 2, 5 and 10 × 1e-3 of the median edge length, a
@@ -154,13 +156,17 @@ def _builtin_surfaces(names, settings: Settings) -> list[Surface]:
     return out
 
 
-def _file_surface(path, settings: Settings, taken: set) -> Surface:
+def _file_surface(path, settings: Settings, taken: set, layer: str | None = None,
+                  object_name: str | None = None) -> Surface:
     from components.core.checks import validate_mesh
-    from components.core.mesh import read_mesh, remove_unreferenced, triangulate
+    from components.core.mesh import remove_unreferenced, triangulate
     from components.harness import default_panel_size
+    from ghserver.convert import read_model
 
     path = Path(path)
-    V, F = read_mesh(path)
+    V, F, notes = read_model(path, layer=layer, name=object_name)
+    for note in notes:
+        log.info("%s", note)
     V, F = validate_mesh(V, F, name=path.name)
     V, F, _ = remove_unreferenced(V, F)
     T = F if F.shape[1] == 3 else triangulate(F)[0]
@@ -169,7 +175,7 @@ def _file_surface(path, settings: Settings, taken: set) -> Surface:
     while name in taken:
         name = f"{path.stem}-{k}"
         k += 1
-    desc = f"mesh file {path.name}: {len(V):,} vertices, {len(F):,} faces"
+    desc = f"mesh file {path.name}: {len(V):,} vertices, {len(F):,} faces" + "".join(f"; {n}" for n in notes)
     return Surface(name, V, T, desc, default_panel_size(V, settings.divisions), DEFAULT_CAMERA)
 
 
@@ -706,6 +712,7 @@ def _finite_json(x):
 
 
 def _clean(out: Path) -> None:
+    (out / "results.3dm").unlink(missing_ok=True)
     for sub, pattern in (("img", "*.png"), ("meshes", "*.obj")):
         d = out / sub
         d.mkdir(parents=True, exist_ok=True)
@@ -719,7 +726,8 @@ def _slug(*parts: str) -> str:
 
 
 def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool = True, quick: bool = False,
-               strategies=None, settings: Settings | None = None) -> ReportSummary:
+               strategies=None, settings: Settings | None = None, layer: str | None = None,
+               object_name: str | None = None) -> ReportSummary:
     """Run every strategy on the built-in surfaces (and mesh files) and write the comparison report.
 
     Parameters
@@ -729,7 +737,8 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     surfaces : iterable of str, optional
         Built-in surfaces to use (default: all of :data:`components.surfaces.samples.SAMPLE_NAMES`); ``()`` for none.
     mesh_files : iterable of path-like
-        Extra design surfaces read from OBJ / OFF / PLY files (triangulated).
+        Extra design surfaces read from .3dm (a mesh, a NURBS surface or a one-face Brep), STL (welded), OBJ, OFF
+        or PLY files (triangulated); see :func:`ghserver.convert.read_model`.
     progress : bool
         Show a progress bar on stderr (only when stderr is a terminal).
     quick : bool
@@ -738,6 +747,8 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
         Strategy keys (default: all of :func:`components.harness.strategy_names`).
     settings : Settings, optional
         Explicit sizes (resolution, divisions, time budget).
+    layer, object_name : str, optional
+        Pick the object of a .3dm mesh file that holds several (by layer name or object name).
 
     Returns
     -------
@@ -762,7 +773,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     surfs = _builtin_surfaces(names, settings)
     taken = set(names)
     for f in mesh_files or ():
-        s = _file_surface(f, settings, taken)
+        s = _file_surface(f, settings, taken, layer=layer, object_name=object_name)
         taken.add(s.name)
         surfs.append(s)
     if not surfs:
@@ -775,6 +786,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     rows: list[dict] = []
     surf_info = []
     n_images = 0
+    model_meshes = []  # (layer = strategy, name, V, F) of every result mesh, for results.3dm
     try:
         for surf in surfs:
             lo, hi = _bbox(surf.V)
@@ -809,6 +821,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                 for stage, (Vm, Fm) in stages:
                     mesh_file = f"meshes/{_slug(surf.name, sname, stage)}.obj"
                     write_obj(out / mesh_file, Vm, Fm)
+                    model_meshes.append((sname, f"{surf.name} {stage}", Vm, Fm))
                     row["meshes"][stage] = mesh_file
                     from components.metrics.quality import warping_height
 
@@ -857,6 +870,10 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                                 "title": "Panel area distribution (box: quartiles, line: median, triangle: mean)"})
             n_images += len(comparisons)
         bar.step("comparison plots", n=3)
+        if model_meshes:
+            from ghserver.convert import write_meshes_3dm
+
+            write_meshes_3dm(out / "results.3dm", model_meshes)
         elapsed = time.perf_counter() - t0
         report = {
             "generated": _dt.datetime.now().isoformat(timespec="seconds"),
@@ -979,7 +996,10 @@ def run_demo(out_dir=DEFAULT_OUT, progress: bool = True) -> ReportSummary:
 def add_report_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``ghserver report``."""
     parser.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default ./{DEFAULT_OUT})")
-    parser.add_argument("meshes", nargs="*", help="extra design surfaces: OBJ, OFF or PLY mesh files")
+    parser.add_argument("meshes", nargs="*", help="extra design surfaces: .3dm (a mesh, NURBS surface or one-face "
+                                                  "Brep), .stl (welded), .obj, .off or .ply files")
+    parser.add_argument("--layer", default=None, help="in a .3dm holding several meshes/surfaces: the layer to use")
+    parser.add_argument("--object", default=None, help="in a .3dm holding several meshes/surfaces: the object name")
     parser.add_argument("--surfaces", default=None,
                         help="comma-separated built-in surfaces (default: all; 'none' for mesh files only)")
     parser.add_argument("--strategies", default=None, help="comma-separated strategies (default: all)")
@@ -1018,7 +1038,8 @@ def report_command(args) -> int:
     settings = FULL if args.full else (QUICK if args.quick else DEMO)
     try:
         summary = run_report(args.out, surfaces=_split(args.surfaces), mesh_files=args.meshes,
-                             progress=not args.no_progress, strategies=_split(args.strategies), settings=settings)
+                             progress=not args.no_progress, strategies=_split(args.strategies), settings=settings,
+                             layer=args.layer, object_name=args.object)
     except (ValueError, OSError) as exc:  # InputError / MeshError are ValueErrors: a bad file or option
         print(f"ghserver report: {exc}", file=sys.stderr)
         return 2

@@ -1,4 +1,4 @@
-"""Shared fixtures: small analytic meshes and the path to the shared real data (skipped when absent)."""
+"""Shared fixtures: small analytic meshes and the path to the real test data in ``tests/data``."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,15 +9,16 @@ import pytest
 from components.core.mesh import pad_faces, quad_grid
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "data"
 TESTDATA = Path(__file__).resolve().parent / "data"
 
 
-def shared_file(relative: str) -> Path:
-    """Path of a file under ``../shared/data``; skips the test cleanly when it is absent."""
-    path = SHARED / relative
-    if not path.exists():
-        pytest.skip(f"shared data not available: {relative}")
+def data_file(relative: str) -> Path:
+    """Path of a file under ``tests/data`` (copied there with its source and license, see its README.md).
+
+    A missing file is an error, not a skip: the test data ships with the repository."""
+    path = TESTDATA / relative
+    if not path.is_file():
+        raise FileNotFoundError(f"test data missing: tests/data/{relative} (see tests/data/README.md)")
     return path
 
 

@@ -360,9 +360,11 @@ def _subdivision_barycentrics(s: int) -> np.ndarray:
     return np.column_stack([1 - uv.sum(axis=1), uv])
 
 
-def coverage(V, T, reference, h, radius: float = 0.25, slack: float = 0.05) -> float:
+def coverage(V, T, reference, h, radius: float = 0.25, slack: float = 0.05, hinges=None) -> float:
     """Share of the reference's area whose sample points are within ``radius·h`` of a result triangle's plane and
-    project inside that triangle (``slack·h`` tolerance across its edges); ``h`` is the median edge.
+    project inside that triangle (``slack·h`` tolerance across its edges), or are within ``radius·h`` of an edge
+    two panels share (``hinges``, vertex pairs: on the convex side of a kink a point near the joint projects into
+    neither panel); ``h`` is the median edge.
 
     The slack is the contract's boundary margin (issue 16: a straight panel edge between two points of a curved
     boundary cuts off a sliver of the design surface; within 0.05 × the median edge of the panelling it counts as
@@ -399,6 +401,17 @@ def coverage(V, T, reference, h, radius: float = 0.25, slack: float = 0.05) -> f
             m = _unit(np.cross(n, B - A))
             ok &= np.einsum("ij,ij->i", X - A, m) >= -slack * h
         covered[a[ok]] = True
+    if hinges is not None and len(hinges) and not covered.all():
+        A, B = V[hinges[:, 0]], V[hinges[:, 1]]
+        half = 0.5 * float(np.linalg.norm(B - A, axis=1).max())
+        rest = np.nonzero(~covered)[0]
+        near = cKDTree(0.5 * (A + B)).query_ball_point(S[rest], radius * h + half)
+        for k, hs in zip(rest, near):
+            if hs:
+                a_, b_ = A[hs], B[hs]
+                d = b_ - a_
+                t = np.clip(np.einsum("ij,ij->i", S[k] - a_, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+                covered[k] = bool((np.linalg.norm(a_ + t[:, None] * d - S[k], axis=1) <= radius * h).any())
     return float(w[covered].sum() / w.sum())
 
 
@@ -484,7 +497,8 @@ def independent_defects(V, F, reference=None) -> dict:
     # self-intersections
     T, owner = _triangles(V, F, sizes)
     out["intersecting_pairs"] = len(_intersecting_pairs(V, T, owner, 1e-7 * scale))
-    out["coverage"] = None if reference is None else coverage(V, T, reference, scale)
+    hinges = E[order][pair]  # the edges two panels share
+    out["coverage"] = None if reference is None else coverage(V, T, reference, scale, hinges=hinges)
     out["max_planarity"] = float(planarity(V, F).max())  # information only: the criteria below leave it out
     out["defects"] = defect_lines(out)
     return out

@@ -383,7 +383,9 @@ def bounding_box_diagonal(V: np.ndarray) -> float:
 
 
 def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
-    """Read a polygon mesh from OBJ, OFF or ASCII PLY, keeping quads and n-gons.
+    """Read a polygon mesh from OBJ, OFF, ASCII PLY or STL, keeping quads and n-gons.
+
+    STL triangles are welded by :func:`read_stl` (at ``STL_WELD`` × the bounding-box diagonal).
 
     Parameters
     ----------
@@ -398,6 +400,8 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     """
     path = Path(path)
     suffix = path.suffix.lower()
+    if suffix == ".stl":
+        return read_stl(path)[:2]
     text = path.read_text(errors="replace")
     if suffix == ".obj":
         verts, faces = [], []
@@ -442,8 +446,90 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
             c = int(vals[0])
             faces.append([int(x) for x in vals[1:1 + c]])
     else:
-        raise ValueError(f"{path}: unsupported mesh format {suffix!r} (use .obj, .off or .ply)")
+        raise ValueError(f"{path}: unsupported mesh format {suffix!r} (use .obj, .off, .ply or .stl; .3dm through "
+                         "ghserver.convert.read_model)")
     return np.asarray(verts, dtype=np.float64).reshape(-1, 3), pad_faces(faces)
+
+
+#: STL corners closer than this fraction of the bounding-box diagonal are welded into one vertex (an ASCII STL's
+#: six significant digits and a binary STL's float32 both round far below it)
+STL_WELD = 1e-6
+
+
+class StlMesh(NamedTuple):
+    """A welded STL triangle mesh."""
+
+    V: np.ndarray
+    F: np.ndarray
+    tolerance: float
+    corners: int
+    dropped: int
+
+
+def _stl_triangles(data: bytes, name: str) -> np.ndarray:
+    if len(data) >= 84:
+        n = int.from_bytes(data[80:84], "little")
+        if len(data) == 84 + 50 * n:  # binary: header, count, then 50-byte records
+            rec = np.frombuffer(data, dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]),
+                                count=n, offset=84)
+            return rec["v"].astype(np.float64)
+    text = data.decode("ascii", errors="replace")
+    if not text.lstrip().lower().startswith("solid"):
+        raise MeshError(name, "not an STL file (neither binary with a matching triangle count nor ASCII 'solid')")
+    vals = [ln.split()[1:4] for ln in text.splitlines() if ln.strip().lower().startswith("vertex")]
+    try:
+        P = np.asarray(vals, dtype=np.float64)
+    except ValueError:
+        raise MeshError(name, "an ASCII STL 'vertex' line does not hold three numbers") from None
+    if P.size == 0 or len(P) % 3:
+        raise MeshError(name, f"an ASCII STL needs three vertices per facet, got {len(P)} vertex lines")
+    return P.reshape(-1, 3, 3)
+
+
+def read_stl(path) -> StlMesh:
+    """Read a binary or ASCII STL and weld its triangle corners into a shared-vertex mesh.
+
+    STL stores every triangle with its own three corners; corners within ``STL_WELD`` × the bounding-box
+    diagonal of each other become one vertex (a tolerance relative to the mesh size, so the weld is the same in
+    mm or m and at site coordinates). Triangles whose corners weld together are dropped.
+
+    Returns
+    -------
+    StlMesh
+        ``V (n, 3)``, triangles ``F (m, 3)``, the weld ``tolerance`` in model units, the number of ``corners``
+        read and of degenerate triangles ``dropped``.
+
+    Raises
+    ------
+    MeshError
+        Not an STL file, or no triangle in it.
+    """
+    # deferred import: scipy.spatial + csgraph took 1.5 s to import (measured), only STL files need them
+    from scipy.sparse import coo_matrix
+    # deferred import: as above
+    from scipy.sparse.csgraph import connected_components
+    # deferred import: as above
+    from scipy.spatial import cKDTree
+
+    path = Path(path)
+    T = _stl_triangles(path.read_bytes(), path.name)
+    if len(T) == 0:
+        raise MeshError(path.name, "the STL file holds no triangle")
+    P = T.reshape(-1, 3)
+    if not np.isfinite(P).all():
+        raise MeshError(path.name, "the STL file holds a non-finite coordinate")
+    diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
+    tol = STL_WELD * diag
+    centre = 0.5 * (P.max(axis=0) + P.min(axis=0))  # site coordinates: the KD-tree works relative to the box
+    pairs = cKDTree(P - centre).query_pairs(tol, output_type="ndarray") if tol > 0 else np.empty((0, 2), int)
+    n = len(P)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    _, first, inverse = np.unique(label, return_index=True, return_inverse=True)
+    V = P[first]
+    F = inverse.reshape(-1, 3).astype(np.int64)
+    keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
+    return StlMesh(V, F[keep], tol, n, int(np.sum(~keep)))
 
 
 def write_obj(path, V: np.ndarray, F: np.ndarray) -> None:

@@ -13,7 +13,7 @@ from components.subdivision.pull import pulled_vertices
 from components.surfaces.samples import sample_mesh
 from components.subdivision.singularities import singularity_analysis
 from components.subdivision.subdivide import subdivided_mesh, control_mesh
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _surfaces():
@@ -22,7 +22,7 @@ def _surfaces():
 
 def _surface(name):
     if name == "inspired":
-        return read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+        return read_mesh(data_file("inspired_mesh.obj"))
     V, T, _ = sample_mesh(name, 20)
     return V, T
 

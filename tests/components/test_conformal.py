@@ -13,7 +13,7 @@ from components.core.conformal import (
     disk_map,
     lscm,
 )
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 igl = pytest.importorskip("igl")
 
@@ -117,7 +117,7 @@ def test_lscm_matches_igl_on_a_hemisphere():
 
 
 def test_lscm_matches_igl_on_inspired_mesh():
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    V, F = read_mesh(data_file("inspired_mesh.obj"))
     T, _ = triangulate(F)
     UV = lscm(V, T)
     d = conformal_distortion(V, T, UV)
@@ -131,7 +131,7 @@ def test_lscm_matches_igl_on_inspired_mesh():
 
 
 def test_lscm_handles_several_boundary_loops():
-    V, F = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_mesh.obj"))  # annulus
+    V, F = read_mesh(data_file("geometrylab_test_tri_mesh.obj"))  # annulus
     T, _ = triangulate(F)
     UV = lscm(V, T)
     d = conformal_distortion(V, T, UV)
@@ -187,7 +187,7 @@ def test_disk_map_boundary_on_the_unit_circle_and_no_flips():
 
 @pytest.mark.parametrize("shape", ["disk", "square"])
 def test_disk_map_on_inspired_mesh(shape):
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    V, F = read_mesh(data_file("inspired_mesh.obj"))
     T, _ = triangulate(F)
     UV, info = disk_map(V, T, shape=shape)
     d = conformal_distortion(V, T, UV)
@@ -214,7 +214,7 @@ def test_disk_map_bad_inputs():
     V, T = _octahedron()
     with pytest.raises(MeshError, match="mesh: .*closed"):
         disk_map(V, T)
-    V, F = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_mesh.obj"))
+    V, F = read_mesh(data_file("geometrylab_test_tri_mesh.obj"))
     with pytest.raises(MeshError, match="2 boundary loops.*LSCM"):
         disk_map(V, triangulate(F)[0])
     V, T = _planar_patch()

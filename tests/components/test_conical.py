@@ -18,7 +18,7 @@ from components.conical.cones import (
 from components.core.checks import validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_vertex_mask, quad_grid, read_mesh
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def revolution_net(nz=8, nt=10, closed=False, sweep=0.8 * np.pi):
@@ -81,7 +81,7 @@ def test_node_axes_of_a_surface_of_revolution_meet_the_rotation_axis():
 
 
 def test_conical1_passes_as_is():
-    V, F = read_mesh(shared_file("meshes/dos/obj_pq__conical1.obj"))
+    V, F = read_mesh(data_file("obj_pq__conical1.obj"))
     chk = conical_check(V, F, tol=1e-3)
     # measured: max |ω1 − ω2 + ω3 − ω4| = 7.5e-4 rad (0.043°, next to the boundary), median 2.1e-5 rad, over
     # 1,015 interior valence-4 vertices; the mesh is planar only to 4e-5, which bounds what the criterion can show
@@ -92,7 +92,7 @@ def test_conical1_passes_as_is():
     res = analysis((V, F), tolerance=1e-3)
     assert res.is_conical and len(res.failed) == 0 and res.max_planarity < 1e-4
     # a planarized but non-conical PQ mesh of the same collection fails by orders of magnitude
-    V2, F2 = read_mesh(shared_file("meshes/dos/obj_pq__planarizednormalized_six_quad.obj"))
+    V2, F2 = read_mesh(data_file("obj_pq__planarizednormalized_six_quad.obj"))
     assert conical_check(V2, F2).max_criterion > 0.1
 
 
@@ -148,7 +148,7 @@ def test_vertex_offset_does_not_keep_face_distances():
 
 
 def test_conical1_face_offset_bound():
-    V, F = read_mesh(shared_file("meshes/dos/obj_pq__conical1.obj"))
+    V, F = read_mesh(data_file("obj_pq__conical1.obj"))
     warp = _warping(V, F).max()  # 2.1e-5 model units (edges ≈ 0.95): the input is planar only to 4e-5
     for d in (0.1, 1.0):
         off = face_offset(V, F, d)
@@ -211,7 +211,7 @@ def test_offset_mesh_component():
 
 
 def test_triangle_mesh_is_not_reported_conical():
-    V, F = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_dome.obj"))
+    V, F = read_mesh(data_file("geometrylab_test_tri_dome.obj"))
     res = analysis((V, F))
     # valence-6 stars of triangles: their six normals do not lie on a common cone
     assert not res.is_conical and len(res.checked) > 0 and len(res.failed) > 0

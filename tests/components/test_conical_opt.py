@@ -11,11 +11,11 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, quad_grid, read_mesh
 from components.core.measures import quad_planarity as face_planarity
 from tests.components.test_conical import revolution_net, translation_net
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def test_published_conical_mesh_passes_as_is():
-    V, F = read_mesh(shared_file("meshes/dos/obj_pq__conical1.obj"))
+    V, F = read_mesh(data_file("obj_pq__conical1.obj"))
     chk = conical_check(V, F, 1e-4)  # the cone fit judges; the angle criterion alone is perturbed by planarity 4e-5
     assert chk.passed.all() and chk.checked.sum() > 900
     assert chk.max_criterion > 1e-4  # reported beside the verdict
@@ -23,7 +23,7 @@ def test_published_conical_mesh_passes_as_is():
 
 
 def test_non_conical_pq_meshes_fail():
-    V, F = read_mesh(shared_file("meshes/dos/obj_pq__planarizednormalized_six_quad.obj"))
+    V, F = read_mesh(data_file("obj_pq__planarizednormalized_six_quad.obj"))
     assert face_planarity(V, F).max() < 1e-4
     assert not conical_check(V, F, 1e-4).passed.all()
     Vt, Ft = translation_net(8)  # exactly planar quads, not conical

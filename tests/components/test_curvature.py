@@ -14,7 +14,7 @@ from components.core.curvature import (
 )
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_vertex_mask, read_mesh, triangulate
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _grid_tris(nu, nv):
@@ -208,12 +208,12 @@ def _compare_with_igl(path, bounds):
 
 def test_agrees_with_libigl_on_inspired_mesh():
     # measured: median 0.08°, p90 0.25°, max 2.0° where anisotropy > 0.5
-    _compare_with_igl(shared_file("meshes/libigl/inspired_mesh.obj"), (0.3, 1.0, 4.0))
+    _compare_with_igl(data_file("inspired_mesh.obj"), (0.3, 1.0, 4.0))
 
 
 def test_agrees_with_libigl_on_lilium():
     # measured: median 0.43°, p90 1.2°, max 4.2° where anisotropy > 0.5
-    _compare_with_igl(shared_file("meshes/libigl/lilium.obj"), (1.0, 2.5, 8.0))
+    _compare_with_igl(data_file("lilium.obj"), (1.0, 2.5, 8.0))
 
 
 def test_bad_inputs(nonmanifold_fan, hypar_grid):

@@ -12,7 +12,7 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_vertex_mask, edge_topology, face_corners, read_mesh
 from components.surfaces.samples import sample_mesh
 from tests.components.test_curvature_network import trace_evenly
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 try:
@@ -25,7 +25,7 @@ except ImportError:  # pragma: no cover - until components.fields.streamlines la
 
 def _surface(name):
     if name == "inspired":
-        return read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+        return read_mesh(data_file("inspired_mesh.obj"))
     V, T, _ = sample_mesh(name, 60)
     return V, T
 

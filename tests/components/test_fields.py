@@ -18,7 +18,7 @@ from components.fields.field import (
 from components.core.errors import InputError, MeshError
 from components.core.mesh import read_mesh, triangulate
 from components.surfaces.samples import sample_mesh
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 # ----------------------------------------------------------------------------------------------
@@ -78,7 +78,7 @@ def _annulus(n_theta=48, n_r=8):
 
 
 def _libigl(name):
-    V, F = read_mesh(shared_file(f"meshes/libigl/{name}"))
+    V, F = read_mesh(data_file(name))
     T, _ = triangulate(F)
     return V, T
 
@@ -380,7 +380,7 @@ def test_bad_options():
 def test_normalization_separates_merged_singularities():
     # a hemispherical dome with an aligned boundary: the linear solve fuses the singularities near the pole, the
     # normalize-and-diffuse iterations spread them into four quarter-turn singularities (an O-grid layout)
-    V, T = read_mesh(shared_file("meshes/dos/geometrylab_test_tri_dome.obj"))
+    V, T = read_mesh(data_file("geometrylab_test_tri_dome.obj"))
 
     def spread(f):
         P = V[f.singularities]

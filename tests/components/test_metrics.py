@@ -7,7 +7,7 @@ import pytest
 from components.metrics import quality as M
 from components.core.errors import InputError, MeshError
 from components.core.mesh import face_sizes, pad_faces, quad_grid, read_mesh, triangulate
-from tests.conftest import SHARED, shared_file
+from tests.conftest import TESTDATA, data_file
 
 # ----------------------------------------------------------------------------------------------
 # small analytic meshes
@@ -337,20 +337,13 @@ def test_summary_helper():
 
 
 def _real_quad_meshes():
-    root = SHARED / "meshes"
-    if not root.exists():
-        return []
-    out = []
-    for p in sorted(root.rglob("*")):
-        if p.suffix.lower() in (".obj", ".off", ".ply"):
-            out.append(str(p.relative_to(SHARED)))
-    return out
+    return sorted(p.name for p in TESTDATA.iterdir() if p.suffix.lower() in (".obj", ".off", ".ply"))
 
 
-@pytest.mark.parametrize("relative", _real_quad_meshes() or ["meshes/none.obj"])
+@pytest.mark.parametrize("relative", _real_quad_meshes())
 def test_planarity_matches_libigl_on_real_meshes(relative):
     igl = pytest.importorskip("igl")
-    V, F = read_mesh(shared_file(relative))
+    V, F = read_mesh(data_file(relative))
     if F.shape[1] != 4 or np.any(face_sizes(F) != 4):
         pytest.skip("not a pure quad mesh")
     ours = M.quad_planarity(V, F)
@@ -428,8 +421,8 @@ def test_components_register_with_the_server():
 
 
 def test_conical_criterion_on_a_real_conical_mesh():
-    conical = M.conical_criterion(read_mesh(shared_file("meshes/dos/obj_pq__conical1.obj")))
-    other = M.conical_criterion(read_mesh(shared_file("meshes/dos/obj_pq__planarizednormalized_six_quad.obj")))
+    conical = M.conical_criterion(read_mesh(data_file("obj_pq__conical1.obj")))
+    other = M.conical_criterion(read_mesh(data_file("obj_pq__planarizednormalized_six_quad.obj")))
     assert len(conical.vertices) > 1000
     assert conical.max_criterion < 1e-2 and conical.mean_criterion < 1e-3 and conical.max_deviation < 1e-3
     assert other.mean_criterion > 10 * conical.max_criterion

@@ -11,7 +11,7 @@ from components.fields.candidate import candidate_mesh, candidate_quality
 from components.fields.pipeline import pq_from_conjugate_field
 from components.core.proximity import closest_points
 from components.surfaces.samples import sample_mesh
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 def target_for(V, F, quads):
     T, _ = triangulate(F)
@@ -61,13 +61,13 @@ def test_sample_candidates(name):
     assert q.edge_length_within >= 0.9
 
 
-REAL = [("libigl/inspired_mesh.obj", 1600), ("libigl/lilium.obj", 800),
-        ("compas/compas_libigl_minimal_surface.obj", 600), ("dos/geometrylab_test_tri_dome.obj", 150)]
+REAL = [("inspired_mesh.obj", 1600), ("lilium.obj", 800),
+        ("compas_libigl_minimal_surface.obj", 600), ("geometrylab_test_tri_dome.obj", 150)]
 
 
 @pytest.mark.parametrize("path,quads", REAL)
 def test_real_mesh_candidates(path, quads):
-    V, F = read_mesh(shared_file("meshes/" + path))
+    V, F = read_mesh(data_file(path))
     h = target_for(V, F, quads)
     cand = candidate_mesh((V, F), h, repair=True)
     q = check_candidate(V, F, cand, h, quads=False)
@@ -77,7 +77,7 @@ def test_real_mesh_candidates(path, quads):
 
 
 def test_inspired_mesh_conjugate_beats_libigl_and_smooth():
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    V, F = read_mesh(data_file("inspired_mesh.obj"))
     h = target_for(V, F, 1600)
     conj = candidate_mesh((V, F), h, field="conjugate")
     smooth = candidate_mesh((V, F), h, field="smooth")
@@ -121,7 +121,7 @@ def test_other_samples_planarize(name):
 
 @pytest.mark.parametrize("path,quads", REAL)
 def test_real_meshes_planarize(path, quads):
-    V, F = read_mesh(shared_file("meshes/" + path))
+    V, F = read_mesh(data_file(path))
     h = target_for(V, F, quads)
     res = pq_from_conjugate_field((V, F), h, time_budget=20.0)
     assert res.planarized_max_planarity <= 1e-4

@@ -12,7 +12,7 @@ from components.planarize.geometry import LoopIndex, vertex_stars
 from components.planarize.goals import conical_residual
 from components.metrics.health import face_health
 from components.planarize.planarizer import on_surface, planarize
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _healthy(res, V, F):
@@ -159,14 +159,14 @@ def test_conical_goal_reaches_criterion(sphere_cap):
 @pytest.mark.parametrize(
     "path",
     [
-        "compas/compas_hypar.obj",
-        "compas_cgal/rhinovault_mesh_0.ply",
-        "libigl/inspired_mesh_quads_Conjugate.off",
-        "libigl/inspired_mesh_quads_Smooth.off",
+        "compas_hypar.obj",
+        "rhinovault_mesh_0.ply",
+        "inspired_mesh_quads_Conjugate.off",
+        "inspired_mesh_quads_Smooth.off",
     ],
 )
 def test_real_meshes_reach_tolerance(path):
-    V, F = read_mesh(shared_file("meshes/" + path))
+    V, F = read_mesh(data_file(path))
     res = planarize((V, F))
     assert res.converged, res.warnings
     assert res.max_planarity <= 1e-4
@@ -176,7 +176,7 @@ def test_real_meshes_reach_tolerance(path):
 def test_dos_heart_reaches_tolerance_with_healthy_panels():
     # the hardest mesh (start planarity 0.12, corner angles down to 6.2°, mixed curvature): the minimum-norm
     # solution folds quads; the corner-turn guard keeps every face convex and the worst angle above half the input's
-    V, F = read_mesh(shared_file("meshes/dos/obj_pq__heart.obj"))
+    V, F = read_mesh(data_file("obj_pq__heart.obj"))
     assert face_planarity(V, F).max() > 0.1
     res = planarize((V, F))
     assert res.converged and res.healthy, res.warnings
@@ -186,7 +186,7 @@ def test_dos_heart_reaches_tolerance_with_healthy_panels():
 
 
 def test_closeness_to_reference_is_bounded_on_conjugate_mesh():
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
+    V, F = read_mesh(data_file("inspired_mesh_quads_Conjugate.off"))
     mel = edge_lengths(V, edge_topology(F).E).mean()
     res = planarize((V, F), reference=(V, F))
     assert res.converged, res.warnings
@@ -201,7 +201,7 @@ def test_sliding_on_the_conjugate_mesh_stays_healthy_and_says_how_far():
     # the boundary on that polyline is only reached by collapsing boundary panels (the solver without its health
     # guard converges with 42 edges under 2e-4 × the median edge and 179° corners): the guard keeps the panels
     # healthy, and when the tolerance is out of reach the result says how far it is
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
+    V, F = read_mesh(data_file("inspired_mesh_quads_Conjugate.off"))
     res = on_surface((V, F), (V, F))
     assert res.healthy, res.violations
     h = face_health(res.mesh[0], F)
@@ -224,7 +224,7 @@ def test_sliding_on_the_conjugate_mesh_stays_healthy_and_says_how_far():
 
 def test_never_worse_than_input_when_infeasible():
     # hypar ruling grid with a fixed boundary has no planar-quad solution: the input must come back unharmed
-    V, F = read_mesh(shared_file("meshes/compas/compas_hypar.obj"))
+    V, F = read_mesh(data_file("compas_hypar.obj"))
     res = planarize((V, F), boundary="fixed", max_iterations=15)
     assert not res.converged
     assert res.max_planarity <= face_planarity(V, F).max() + 1e-15
@@ -306,7 +306,7 @@ def test_laplacian_fairness_smooths():
 
 def test_minimum_displacement_beats_plain_gauss_newton_on_the_conjugate_mesh():
     # the optimize phase moves along the planar meshes toward the start: far less than one minimum-norm pass
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
+    V, F = read_mesh(data_file("inspired_mesh_quads_Conjugate.off"))
     mel = edge_lengths(V, edge_topology(F).E).mean()
     res = planarize((V, F), closeness_weight=0.0)
     assert res.converged

@@ -17,7 +17,7 @@ from components.planarize.guard import evaluate, panel_guard
 from components.planarize.planarizer import on_surface, planarize, planarize_mesh
 from components.planarize.problem import checked_options, setup_problem
 from components.planarize.rows import hard_rows
-from tests.conftest import shared_file
+from tests.conftest import data_file
 from tests.fabricable import independent_defects
 
 
@@ -313,7 +313,7 @@ def test_a_zero_length_edge_is_refused_naming_the_face():
 def test_the_final_verdict_uses_the_guards_bounds_for_an_already_bad_input():
     # the dos heart has 6.2° corners: the guard lets such a corner lose at most 10 % (instead of half, and instead
     # of calling every result unhealthy) and a warning says so
-    V, F = read_mesh(shared_file("meshes/dos/obj_pq__heart.obj"))
+    V, F = read_mesh(data_file("obj_pq__heart.obj"))
     res = planarize((V, F))
     assert any(w.startswith("planarize: the input already has corners of 6.19°") for w in res.warnings)
     worst_in = face_health(V, F).worst_corner

@@ -9,7 +9,7 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, bounding_box_diagonal, quad_grid, read_mesh, triangulate
 from components.subdivision.pull import pull_to_surface, pulled_vertices, reference_boundary
 from components.subdivision.subdivide import subdivided_mesh
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _hypar_reference(n=40):
@@ -117,8 +117,8 @@ def test_flipped_faces_are_reported():
 
 
 def test_real_mesh_quad_remesh_onto_inspired_mesh():
-    Vr, Tr = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
-    Vq, Fq = read_mesh(shared_file("meshes/libigl/inspired_mesh_quads_Conjugate.off"))
+    Vr, Tr = read_mesh(data_file("inspired_mesh.obj"))
+    Vq, Fq = read_mesh(data_file("inspired_mesh_quads_Conjugate.off"))
     V1, Q1, _ = subdivided_mesh(Vq, Fq, levels=1)
     res = pulled_vertices(V1, Q1, Vr, Tr)
     diag = bounding_box_diagonal(Vr)

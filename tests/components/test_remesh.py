@@ -9,7 +9,7 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, edge_topology, read_mesh, triangulate
 from components.core.proximity import TriangleIndex, closest_points_on_polyline
 from components.fields.remesh import feature_edges, isotropic_remesh, remesh
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _grid_tris(nu, nv):
@@ -154,14 +154,14 @@ def test_hole_and_features_folded_plate():
 
 
 @pytest.mark.parametrize("name, factor", [
-    ("libigl/inspired_mesh.obj", 1.0),
-    ("libigl/inspired_mesh.obj", 2.0),
-    ("libigl/lilium.obj", 1.5),
-    ("dos/geometrylab_test_tri_dome.obj", 0.5),
-    ("dos/geometrylab_test_tri_mesh.obj", 1.0),  # annulus: two boundary loops
+    ("inspired_mesh.obj", 1.0),
+    ("inspired_mesh.obj", 2.0),
+    ("lilium.obj", 1.5),
+    ("geometrylab_test_tri_dome.obj", 0.5),
+    ("geometrylab_test_tri_mesh.obj", 1.0),  # annulus: two boundary loops
 ])
 def test_real_meshes(name, factor):
-    V, F = read_mesh(shared_file(f"meshes/{name}"))
+    V, F = read_mesh(data_file(name))
     T, _ = triangulate(F)
     L = factor * _mean_edge(V, T)
     V2, T2 = isotropic_remesh(V, T, L, iterations=10)

@@ -8,7 +8,7 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import read_mesh, triangulate
 from components.surfaces.samples import sample_mesh, sample_surface_function
 from components.subdivision.singularities import integrated_gaussian_curvature, singularity_analysis
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 @pytest.mark.parametrize("name, sign", [("dome", 1), ("saddle", -1)])
@@ -67,7 +67,7 @@ def test_threshold_controls_suggestions():
 
 
 def test_inspired_mesh_runs():
-    V, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    V, F = read_mesh(data_file("inspired_mesh.obj"))
     res = singularity_analysis((V, F))
     assert len(res.gaussian) == len(V)
     assert res.positive_count + res.negative_count == len(res.singularities)

@@ -11,7 +11,7 @@ from components.core.proximity import closest_points
 from components.surfaces.samples import sample_mesh
 from components.fields.streamlines import evenly_spaced_streamlines, streamlines, trace_streamlines
 from tests.components.test_fields import _annulus, _grid_triangles, _torus
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _constant_field(T, angle):
@@ -148,7 +148,7 @@ def test_hole_and_real_mesh():
     fld = smooth_frame_field(V, T)
     lines = evenly_spaced_streamlines(V, T, fld.U, fld.W, family=2, separation=0.3)
     assert len(lines) > 10
-    Vr, F = read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+    Vr, F = read_mesh(data_file("inspired_mesh.obj"))
     Tr, _ = triangulate(F)
     cv = field_curvature(Vr, Tr)
     s = smooth_frame_field(Vr, Tr, curvature=cv)

@@ -16,7 +16,7 @@ from components.subdivision.subdivide import (
     subdivided_mesh,
     subdivision_step,
 )
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _cube():
@@ -324,7 +324,7 @@ def test_levels_zero_returns_input(mixed_strip):
 
 
 def test_real_quad_mesh_subdivides(request):
-    V, F = read_mesh(shared_file("meshes/dos/obj_gnet__chebyshev_sphere.obj"))
+    V, F = read_mesh(data_file("obj_gnet__chebyshev_sphere.obj"))
     V1, Q1, info = subdivided_mesh(V, F, levels=2)
     assert len(Q1) == 16 * len(F)
     assert len(info.levels[-1].irregular_vertices) == len(info.levels[0].irregular_vertices)

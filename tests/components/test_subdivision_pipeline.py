@@ -10,12 +10,12 @@ from components.core.proximity import TriangleIndex
 from components.surfaces.samples import sample_mesh
 from components.subdivision.pipeline import pq_from_subdivision
 from components.subdivision.subdivide import face_count_after
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 
 def _surface(name):
     if name == "inspired":
-        return read_mesh(shared_file("meshes/libigl/inspired_mesh.obj"))
+        return read_mesh(data_file("inspired_mesh.obj"))
     V, T, _ = sample_mesh(name, 20)
     return V, T
 

@@ -22,7 +22,7 @@ from components.surfaces.generators import (
     translation,
 )
 from components.core.types import NurbsCurve, NurbsSurface
-from tests.conftest import shared_file
+from tests.conftest import data_file
 
 rhino3dm = pytest.importorskip("rhino3dm")
 
@@ -151,11 +151,11 @@ def test_translation_surface_of_two_lines_is_a_parallelogram_grid():
     assert r.face_count == 12 and r.max_planarity == 0.0
 
 
-@pytest.mark.parametrize("path", ["compas_cgal/rhinovault_mesh_0.ply", "compas_cgal/rhinovault_mesh_1.ply"])
+@pytest.mark.parametrize("path", ["rhinovault_mesh_0.ply", "rhinovault_mesh_1.ply"])
 def test_translation_surface_from_real_vault_edges(path):
     """Two boundary polylines of a real RhinoVAULT vault (a 10 × 10 quad grid, planarity 8e-2) meeting at a
     corner give a translation surface with the same grid of 100 faces, planar to 1e-12."""
-    V0, F0 = read_mesh(shared_file("meshes/" + path))
+    V0, F0 = read_mesh(data_file(path))
     loop = boundary_loops(F0)[0]
     val = vertex_valence(F0, len(V0))
     corners = [k for k, v in enumerate(loop) if val[v] == 2]

@@ -8,7 +8,7 @@ import pytest
 
 from ghserver.app import Config, create_app
 from ghserver.cli import make_server
-from tests.conftest import SHARED
+from tests.conftest import data_file
 from tests.ghserver import echo
 
 
@@ -28,10 +28,7 @@ def hops_body(pointer: str, *trees, **extra) -> dict:
 
 
 def shared_json(name: str) -> dict:
-    path = SHARED / "hops" / name
-    if not path.exists():
-        pytest.skip(f"shared data not available: hops/{name}")
-    return json.loads(path.read_text())
+    return json.loads(data_file(f"hops/{name}").read_text())
 
 
 @pytest.fixture(scope="session")

@@ -243,7 +243,7 @@ class FooResult(NamedTuple):
 def foo(Mesh: Mesh, Distance: float = 1.0) -> FooResult:
     """Offset a mesh and report its area.
 
-    The real Hops request in ``shared/data/hops/post_solve_request.json`` targets a component with exactly these
+    The real Hops request in ``tests/data/hops/post_solve_request.json`` targets a component with exactly these
     inputs (``Mesh``, ``Distance``) and outputs (``Result``, ``Area``).
 
     Parameters

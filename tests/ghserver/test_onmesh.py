@@ -5,7 +5,6 @@ import base64
 import json
 import struct
 import zlib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,7 +15,7 @@ from hypothesis import strategies as st  # noqa: E402
 
 from ghserver._onmesh import _check_double_vertices, _Invalid, read_mesh, read_mesh_colors, write_mesh  # noqa: E402
 
-SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+from tests.conftest import data_file  # noqa: E402
 
 
 # ----------------------------------------------------------------------------------------------
@@ -616,15 +615,8 @@ def test_inconsistent_double_and_float_vertices_rejected():
 # real RhinoCommon (Hops) data, archive 70
 
 
-def _shared(relative: str) -> Path:
-    path = SHARED / relative
-    if not path.exists():
-        pytest.skip(f"shared data not available: {relative}")
-    return path
-
-
 def test_rhinocommon_mesh_v70():
-    obj = json.loads(_shared("hops/rc_mesh_v70.json").read_text())
+    obj = json.loads(data_file("hops/rc_mesh_v70.json").read_text())
     assert obj["archive3dm"] == 70
     expected = decode(obj)
     got = read_mesh(obj)
@@ -634,7 +626,7 @@ def test_rhinocommon_mesh_v70():
 
 
 def test_hops_post_solve_request_mesh():
-    request = json.loads(_shared("hops/post_solve_request.json").read_text())
+    request = json.loads(data_file("hops/post_solve_request.json").read_text())
     item = request["values"][0]["InnerTree"]["{0}"][0]
     assert item["type"] == "Rhino.Geometry.Mesh"
     obj = json.loads(item["data"])

@@ -40,7 +40,7 @@ def test_1_metadata_get(client):
     assert meta["Description"] == "Offset a mesh and report its area."
     for p in meta["Inputs"] + meta["Outputs"]:
         assert p["Name"] and p["ParamType"] in GH_KINDS
-    # the real metadata of a "foo" component, as in shared/data/hops/get_foo_response.json
+    # the real metadata of a "foo" component, as in tests/data/hops/get_foo_response.json
     real = shared_json("get_foo_response.json")
     assert meta["InputNames"] == real["InputNames"] and meta["OutputNames"] == real["OutputNames"]
     for ours, theirs in zip(meta["Inputs"], real["Inputs"]):
@@ -186,7 +186,7 @@ def test_7_real_hops_request_solves(client):
     assert isinstance(out, rhino3dm.Mesh) and len(out.Vertices) == len(src.Vertices)
     area = float(v["Area"]["{0}"][0]["data"])
     assert area > 0
-    # response shape as in shared/data/hops/post_solve_response.json
+    # response shape as in tests/data/hops/post_solve_response.json
     real = shared_json("post_solve_response.json")
     assert [t["ParamName"] for t in real["values"]] == list(v)
     assert real["values"][0]["InnerTree"]["{0}"][0]["type"] == item["type"]
