@@ -410,8 +410,10 @@ def coverage(V, T, reference, h, radius: float = 0.25, slack: float = 0.05, hing
             if hs:
                 a_, b_ = A[hs], B[hs]
                 d = b_ - a_
-                t = np.clip(np.einsum("ij,ij->i", S[k] - a_, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
-                covered[k] = bool((np.linalg.norm(a_ + t[:, None] * d - S[k], axis=1) <= radius * h).any())
+                t = np.einsum("ij,ij->i", S[k] - a_, d) / np.einsum("ij,ij->i", d, d)
+                inside = (t > 0.0) & (t < 1.0)  # beside the joint, not beyond its ends (the boundary's side)
+                near_j = np.linalg.norm(a_ + t[:, None] * d - S[k], axis=1) <= radius * h
+                covered[k] = bool((inside & near_j).any())
     return float(w[covered].sum() / w.sum())
 
 
