@@ -14,8 +14,11 @@ How an input of a step is fed (first rule that applies):
 3. optional inputs (``X | None = None`` on the server) stay unconnected;
 4. geometry inputs (Mesh, Curve, Surface, Point, …) get a floating parameter shared by every step of the
    definition that has an input of the same kind and name (set it from Rhino: *Set one Mesh*…);
-5. Number / Integer items get a slider with the server's default (range from the declared minimum/maximum, else
-   around the default), Text / Boolean items a panel holding the default;
+5. Number / Integer items get a slider: default and range from :data:`SLIDERS` (in metres for lengths: the range
+   covers real use and stays inside what the server accepts), else the server's default with the declared
+   minimum/maximum (else a range around the default); an input without a server default needs an entry in
+   :data:`SLIDERS` (``tests/ghserver/test_definition_walk.py`` checks the shipped files). Text / Boolean items
+   get a panel holding the default;
 6. anything else (lists without a source) stays unconnected: Hops sends the server's default.
 
 A spec whose required components are not in the registry yet is skipped and reported by
@@ -120,6 +123,65 @@ class MissingComponents(LookupError):
 class Report(NamedTuple):
     written: list[Path]
     missing: dict[str, list[str]]  # filename -> URIs (patterns) not in the registry
+
+
+# ----------------------------------------------------------------------------------------------
+# sliders
+
+
+class Slider(NamedTuple):
+    """Default and range of the slider feeding an input (``default`` None: the server's default)."""
+
+    default: float | None
+    minimum: float
+    maximum: float
+
+
+# By input name, or by ``(URI, input name)`` where one name means different things. Lengths are in metres (the
+# model's units in Rhino); every range stays inside the server's declared range and the function's checks, so a
+# slider can only send values the server accepts (``conical/offset`` ``distance`` excepted: 0 is refused, and a
+# slider across 0 is the only way to reach both sides).
+SLIDERS: dict[str | tuple[str, str], Slider] = {
+    # lengths, metres
+    "target_length": Slider(1.5, 0.25, 10.0),
+    "panel_size": Slider(1.5, 0.25, 10.0),
+    ("network/pq_from_curvature_network", "offset"): Slider(0.0, -1.0, 1.0),
+    ("conical/offset", "distance"): Slider(0.2, -1.0, 1.0),
+    "sheet_width": Slider(0.0, 0.0, 6.0),  # 0: one sheet about as wide as high
+    "sheet_height": Slider(0.0, 0.0, 6.0),  # 0: unlimited
+    "gap": Slider(0.01, 0.0, 0.2),
+    ("fabrication/panel_types", "tolerance"): Slider(0.0, 0.0, 0.05),  # 0: the document's tolerance
+    "beam_height": Slider(0.0, 0.0, 1.0),  # 0: 0.2 x the mean edge
+    "beam_width": Slider(0.0, 0.0, 0.3),  # 0: 0.05 x the mean edge
+    # scale-free tolerances, weights, budgets
+    "tolerance": Slider(None, 1e-6, 0.01),  # scale-free planarity (subdivision/pq_from_subdivision fails at 0)
+    ("metrics/panel_health", "tolerance"): Slider(None, 0.0, 0.05),
+    "time_budget": Slider(None, 1.0, 80.0),  # seconds; the server stops a solve at 90 s, Hops waits 100 s
+    "closeness_weight": Slider(None, 0.0, 100.0),
+    "fairness_weight": Slider(None, 0.0, 1.0),
+    "alignment": Slider(None, 0.0, 1.0),
+    "smoothness": Slider(None, 0.01, 10.0),
+    "umbilic_threshold": Slider(None, 0.0, 0.5),  # must stay below 1
+    "threshold": Slider(None, 0.0, 2.0),
+    "flat_tolerance": Slider(None, 0.0, 0.5),
+    "scale": Slider(None, 0.5, 1.5),  # per step of the directrix: 1.5 ** 10 is already 58
+    "min_angle": Slider(None, 0.0, 80.0),
+    # counts
+    "iterations": Slider(None, 1, 200),
+    "max_iterations": Slider(None, 1, 1000),
+    "radius": Slider(None, 1, 5),
+    "count_u": Slider(None, 1, 100),
+    "count_v": Slider(None, 1, 100),
+    "faces": Slider(None, 4, 200),
+    "levels": Slider(None, 0, 4),
+    ("subdivision/pq_from_subdivision", "levels"): Slider(None, 0, 3),  # 4 levels of 36 faces: over 40 s
+    "max_faces": Slider(None, 1000, 5_000_000),
+}
+
+
+def slider_of(uri: str, p: dict) -> Slider | None:
+    """The :data:`SLIDERS` entry of input ``p`` of component ``uri`` (the ``(uri, name)`` entry first)."""
+    return SLIDERS.get((uri, p["Name"]), SLIDERS.get(p["Name"]))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -310,12 +372,29 @@ _COLUMN_SOURCES = 230.0  # width of the column of sliders/panels left of a Hops 
 _GAP = 40.0
 
 
-def _slider_spec(p: dict) -> tuple[float, float, float, bool, int]:
+def _slider_spec(p: dict, uri: str = "") -> tuple[float, float, float, bool, int]:
+    """``(value, minimum, maximum, integer, digits)`` of the slider feeding input ``p`` of ``uri``.
+
+    Raises
+    ------
+    ValueError
+        The :data:`SLIDERS` entry leaves the declared range or its default leaves its own range.
+    """
     integer = p["ParamType"] == "Integer"
     d = p.get("Default")
     lo, hi = p.get("Minimum"), p.get("Maximum")
+    chosen = slider_of(uri, p)
+    if chosen is not None:
+        where = f"slider of {uri} {p['Name']}"
+        if chosen.default is not None:
+            d = chosen.default
+        if (lo is not None and chosen.minimum < lo) or (hi is not None and chosen.maximum > hi):
+            raise ValueError(f"{where}: [{chosen.minimum}, {chosen.maximum}] leaves the declared range [{lo}, {hi}]")
+        lo, hi = chosen.minimum, chosen.maximum
+        if not isinstance(d, (int, float)) or isinstance(d, bool) or not lo <= d <= hi:
+            raise ValueError(f"{where}: default {d!r} outside [{lo}, {hi}]")
     if not isinstance(d, (int, float)) or isinstance(d, bool):
-        d = lo if lo is not None else 0
+        d = lo if lo is not None else 0  # no default: give the input an entry in SLIDERS (the walk test checks)
     d = float(d)
     if lo is None:
         lo = 0.0 if d >= 0 else -2.0 * abs(d)
@@ -407,7 +486,7 @@ class _Builder:
             if how == "param":
                 sources[name] = self.shared_param(kind, name)
             elif how == "slider":
-                value, lo, hi, integer, digits = _slider_spec(p)
+                value, lo, hi, integer, digits = _slider_spec(p, comp.uri)
                 s = self.doc.add_slider(role, name, value, lo, hi, integer=integer, digits=digits, at=(x, sy))
                 sources[name] = s.out(0)
                 members.append(s)

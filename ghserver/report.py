@@ -72,6 +72,10 @@ class Settings(NamedTuple):
     time_budget: float  # seconds per optimization
 
 
+#: the strategies of :func:`components.harness.strategy_names`, for the command-line help (importing the harness
+#: costs about a second at start, so the names are repeated here; keep them equal)
+STRATEGY_NAMES = ("translation", "conjugate_field", "curvature_network", "subdivision")
+
 QUICK = Settings(resolution=20, divisions=8, time_budget=10.0)
 DEMO = Settings(resolution=48, divisions=20, time_budget=20.0)
 FULL = Settings(resolution=80, divisions=32, time_budget=60.0)
@@ -727,7 +731,7 @@ def _slug(*parts: str) -> str:
 
 def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool = True, quick: bool = False,
                strategies=None, settings: Settings | None = None, layer: str | None = None,
-               object_name: str | None = None) -> ReportSummary:
+               object_name: str | None = None, mode: str | None = None) -> ReportSummary:
     """Run every strategy on the built-in surfaces (and mesh files) and write the comparison report.
 
     Parameters
@@ -749,6 +753,9 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
         Explicit sizes (resolution, divisions, time budget).
     layer, object_name : str, optional
         Pick the object of a .3dm mesh file that holds several (by layer name or object name).
+    mode : str, optional
+        Label of the run in the report (default: "quick", "standard" or "full" after the settings, "custom" for
+        others; :func:`run_demo` passes "demo").
 
     Returns
     -------
@@ -762,7 +769,9 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
 
     t0 = time.perf_counter()
     settings = settings or (QUICK if quick else DEMO)
-    mode = "custom" if settings not in (QUICK, DEMO, FULL) else {QUICK: "quick", DEMO: "demo", FULL: "full"}[settings]
+    if mode is None:
+        mode = ("custom" if settings not in (QUICK, DEMO, FULL)
+                else {QUICK: "quick", DEMO: "standard", FULL: "full"}[settings])
     names = list(SAMPLE_NAMES if surfaces is None else surfaces)
     unknown = [n for n in names if n not in SAMPLE_NAMES]
     if unknown:
@@ -986,7 +995,7 @@ def _fabrication_html(fab: dict | None) -> str:
 
 def run_demo(out_dir=DEFAULT_OUT, progress: bool = True) -> ReportSummary:
     """The report on the four built-in surfaces at a moderate resolution (about a minute on 2 cores)."""
-    return run_report(out_dir, surfaces=None, progress=progress, settings=DEMO)
+    return run_report(out_dir, surfaces=None, progress=progress, settings=DEMO, mode="demo")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -1002,9 +1011,11 @@ def add_report_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--object", default=None, help="in a .3dm holding several meshes/surfaces: the object name")
     parser.add_argument("--surfaces", default=None,
                         help="comma-separated built-in surfaces (default: all; 'none' for mesh files only)")
-    parser.add_argument("--strategies", default=None, help="comma-separated strategies (default: all)")
-    parser.add_argument("--quick", action="store_true", help="small meshes, few panels (seconds)")
-    parser.add_argument("--full", action="store_true", help="finer meshes and more panels (minutes)")
+    parser.add_argument("--strategies", default=None,
+                        help=f"comma-separated strategies: {', '.join(STRATEGY_NAMES)} (default: all)")
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="small meshes, few panels (seconds)")
+    size.add_argument("--full", action="store_true", help="finer meshes and more panels (minutes)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 

@@ -33,7 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_choice, check_int, validate_mesh
+from components.core.checks import check_choice, check_int, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity, warping_height
 from components.core.mesh import edge_topology, triangulate
@@ -317,6 +317,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     """
     # ---- every check first (cheap)
     levels = check_int(levels, "levels", 0)
+    tolerance = check_number(tolerance, "tolerance", 0.0, above=True)
     max_faces = check_int(max_faces, "max_faces", 1)
     faces = check_int(faces, "faces", 4)
     layout = check_choice(layout, "layout", ("auto", "aligned", "ogrid", "grid"))

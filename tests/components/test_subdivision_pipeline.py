@@ -91,6 +91,8 @@ def test_bad_input_before_heavy_work(no_heavy_work, nonmanifold_fan):
     coarse = quad_grid(3, 3)
     with pytest.raises(InputError, match="levels"):
         pq_from_subdivision((V, T), levels=-1)
+    with pytest.raises(InputError, match=r"^tolerance: must be a finite number > 0, got 0"):
+        pq_from_subdivision((V, T), tolerance=0)  # was a ZeroDivisionError after the whole solve
     with pytest.raises(InputError, match="levels"):
         pq_from_subdivision((V, T), levels=1.5)
     with pytest.raises(InputError, match="levels"):

@@ -559,3 +559,10 @@ def test_bad_inputs_name_the_input():
     # a bad panel size inside a run is a failed row, not a crash
     r = st.run_strategy("translation", V, T, float("nan"))
     assert r.status == "failed" and "panel_size" in r.detail
+
+
+def test_the_help_names_every_strategy():
+    """``--strategies`` help lists ``report.STRATEGY_NAMES`` (kept apart from the harness for start-up time)."""
+    from components.harness import strategy_names
+
+    assert list(rp.STRATEGY_NAMES) == list(strategy_names())
