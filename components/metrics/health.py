@@ -78,6 +78,7 @@ _ZERO_AREA = 1e-12  # a face this small (× median edge²) has no area
 _SLIVER = 1e-9  # triangles with |cross| ≤ this × longest edge² have no plane: left out of the intersection test
 _MAX_SAMPLES = 150_000  # coverage samples at most
 _MAX_LEVEL = 256  # largest subdivision of one reference triangle into samples
+_WARPED = 1e-3  # quads warped more than this (scale-free planarity) are judged by both of their splits
 _PAIR_CHUNK = 250_000  # triangle pairs tested together
 
 
@@ -649,11 +650,14 @@ def _coverage(X, F, topo, Xr, Tr, L, A, o: _Options) -> tuple[float, int, float]
     """Covered share of the reference's area, the number of uncovered regions larger than ``A``, and the share of
     the uncovered area that lies beyond the mesh's boundary (the rest is too far from the mesh's faces)."""
     S, W, spacing = _surface_samples(Xr, Tr, np.sqrt(A))  # sub-triangles with edges under √A: ≥ 4 per panel
-    T, _ = triangulate(F)
-    q = TriangleIndex(X, T, name="mesh").query(S, name="reference")
-    d = q.distances / L
-    beyond = _beyond_boundary(q, T, topo, len(X))
-    covered = (d <= o.coverage_distance) & (~beyond | (d <= o.boundary_margin))
+    beyond = np.zeros(len(S), dtype=bool)
+    covered = np.ones(len(S), dtype=bool)
+    for T in _splits(X, F):  # a warped quad is two surfaces: a sample is covered only when both cover it
+        q = TriangleIndex(X, T, name="mesh").query(S, name="reference")
+        d = q.distances / L
+        out = _beyond_boundary(q, T, topo, len(X))
+        covered &= (d <= o.coverage_distance) & (~out | (d <= o.boundary_margin))
+        beyond |= out
     total = float(W.sum())
     coverage = float(W[covered].sum()) / total if total > 0 else 1.0
     missing = float(W[~covered].sum())
@@ -666,6 +670,19 @@ def _coverage(X, F, topo, Xr, Tr, L, A, o: _Options) -> tuple[float, int, float]
         _, label = connected_components(g, directed=False)
         holes = int(np.count_nonzero(np.bincount(label, weights=W[U]) > A))
     return min(coverage, 1.0), holes, outside
+
+
+def _splits(X, F) -> list:
+    """The triangulations whose union of doubts coverage judges: the fan from corner 0, and where a quad is warped
+    (scale-free planarity over :data:`_WARPED`) also the split along its other diagonal (the panel's surface is
+    ambiguous by the warp; the fan alone can claim area that the other split leaves uncovered)."""
+    T, J = triangulate(F)
+    is_quad = face_sizes(F) == 4
+    quads = np.nonzero(is_quad)[0]
+    if not len(quads) or float(quad_planarity(X, F[quads, :4]).max()) <= _WARPED:
+        return [T]
+    G = F[quads, :4]
+    return [T, np.concatenate([T[~is_quad[J]], G[:, [1, 2, 3]], G[:, [1, 3, 0]]])]
 
 
 def _beyond_boundary(q, T, topo, n) -> np.ndarray:
