@@ -587,9 +587,27 @@ def read_model(path, layer: str | None = None, name: str | None = None,
                 f"(1e-6 × the bounding-box diagonal)")
         if s.dropped:
             note += f"; {s.dropped} triangle(s) collapsed by the weld were dropped"
-        return ModelMesh(s.V, s.F, (note,))
+        notes = (note,) + _stl_precision_note(path, s)
+        return ModelMesh(s.V, s.F, notes)
     V, F = read_mesh(path)
     return ModelMesh(V, F, ())
+
+
+def _stl_precision_note(path, s) -> tuple:
+    """A note when a binary STL's single-precision coordinates round the model by more than 1e-7 of its size (site
+    coordinates: at 5e6 a float32 is rounded to 0.5 units), else nothing."""
+    data = Path(path).read_bytes()
+    binary = len(data) >= 84 and len(data) == 84 + 50 * int.from_bytes(data[80:84], "little")
+    size = s.tolerance / 1e-6  # the weld tolerance is 1e-6 × the bounding-box diagonal
+    if not binary or not len(s.V) or size <= 0:
+        return ()
+    far = float(np.abs(s.V).max())
+    step = float(np.spacing(np.float32(far)))
+    if step <= 1e-7 * size:
+        return ()
+    return (f"{Path(path).name}: binary STL stores single-precision coordinates: at up to {far:.4g} they are rounded "
+            f"by up to {step / 2:.3g} ({step / 2 / size:.2g} × the model's size); export the model near the origin "
+            f"(or as .3dm / .obj) to keep its precision",)
 
 
 def write_meshes_3dm(path, meshes, colours: dict | None = None) -> Path:
