@@ -39,6 +39,7 @@ __all__ = [
     "QuadDiagonals",
     "quad_diagonals",
     "quad_planarity",
+    "max_quad_planarity",
     "warping_height",
 ]
 
@@ -474,6 +475,17 @@ def quad_planarity(V, F) -> np.ndarray:
         _, _, d = least_squares_planes(fd, g)
         out[g] = np.abs(d).max(axis=1) / mean_edge_lengths(fd, g)
     return out
+
+
+def max_quad_planarity(V, F) -> float:
+    """The largest :func:`quad_planarity` of the faces, 0.0 without faces.
+
+    >>> from components.core.mesh import quad_grid
+    >>> V, Q = quad_grid(2, 2); max_quad_planarity(V, Q), max_quad_planarity(V, Q[:0])
+    (0.0, 0.0)
+    """
+    pl = quad_planarity(V, F)
+    return float(pl.max()) if len(pl) else 0.0
 
 
 def warping_height(V, F) -> np.ndarray:

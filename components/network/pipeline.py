@@ -46,7 +46,7 @@ from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_mesh
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core.errors import InputError, MeshError
-from components.core.measures import quad_planarity
+from components.core.measures import max_quad_planarity
 from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
                                   triangulate)
 from components.core.proximity import TriangleIndex
@@ -99,11 +99,6 @@ class CurvaturePipelineResult(NamedTuple):
     coverage: float
     violations: Texts
     warnings: list[str]
-
-
-def _max_planarity(V, F):
-    p = quad_planarity(V, F)
-    return float(p.max()) if len(p) else 0.0
 
 
 def _max_criterion(V, F):
@@ -251,7 +246,7 @@ def _judged(V, T, X, F, max_pl, max_crit, max_dev, close, warnings, reached) -> 
 def _as_is(V, T, cand: _Cand, warnings=()) -> _Outcome:
     """The candidate itself, judged."""
     X, F = cand.V, cand.F
-    pl, crit = _max_planarity(X, F), _max_criterion(X, F)
+    pl, crit = max_quad_planarity(X, F), _max_criterion(X, F)
     fit = cone_fit(X, F)
     dev = float(fit.deviation.max()) if len(fit.deviation) else 0.0
     close = float(TriangleIndex(V, T).query(X).distances.mean())
@@ -427,7 +422,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
         candidate=(Vc, cand.F),
         quad_fraction=cand.quad_fraction,
         mean_angle_error=err.mean_away_from_umbilics,
-        candidate_max_planarity=_max_planarity(cand.V, cand.F),
+        candidate_max_planarity=max_quad_planarity(cand.V, cand.F),
         candidate_max_criterion=_max_criterion(cand.V, cand.F),
         optimized=(Xb, F),
         max_planarity=max_pl,

@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.measures import quad_planarity
+from components.core.measures import max_quad_planarity
 from components.metrics.health import face_health
 
 __all__ = ["Verdict", "result_verdict", "planarity_line", "healthy_backoff"]
@@ -109,24 +109,18 @@ def healthy_backoff(prob, guard, reference, X0, X1):
     """
     if not _shape_healthy(prob, guard, reference, X0):
         return None
-    best = (float(_max_planarity(X0, prob.F)), 0.0)
+    best = (max_quad_planarity(X0, prob.F), 0.0)
     lo, hi = 0.0, 1.0
     for _ in range(_BACKOFF_STEPS):
         t = 0.5 * (lo + hi)
         X = X0 + t * (X1 - X0)
         if _shape_healthy(prob, guard, reference, X):
             lo = t
-            best = min(best, (float(_max_planarity(X, prob.F)), t))
+            best = min(best, (max_quad_planarity(X, prob.F), t))
         else:
             hi = t
     t = best[1]
     return X0 + t * (X1 - X0), t
-
-
-def _max_planarity(X, F) -> float:
-    """The largest scale-free planarity of the faces (0 without faces)."""
-    pl = quad_planarity(X, F)
-    return float(pl.max()) if len(pl) else 0.0
 
 
 def _still_under(note: str, h, opts) -> bool:

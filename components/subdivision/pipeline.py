@@ -35,7 +35,8 @@ import numpy as np
 
 from components.core.checks import check_choice, check_int, check_number, validate_mesh
 from components.core.errors import InputError
-from components.core.measures import corner_angles, nonconvex_faces, quad_planarity, warping_height
+from components.core.measures import (corner_angles, max_quad_planarity, nonconvex_faces, quad_planarity,
+                                      warping_height)
 from components.core.mesh import edge_topology, triangulate
 from components.core.proximity import TriangleIndex
 from components.core.types import Mesh, Texts
@@ -141,16 +142,11 @@ def _candidate_folds(cand: _Candidate, reference) -> int:
     return int(np.count_nonzero(h.face_defects & _FOLD_DEFECTS))
 
 
-def _candidate_healthy(cand: _Candidate, reference) -> bool:
-    return _candidate_folds(cand, reference) == 0
-
-
-def _other_candidate(V, T, first, faces, layout, levels, max_faces, spread_boundary, timings, warnings):
+def _other_candidate(V, T, first, n_first, faces, layout, levels, max_faces, spread_boundary, timings, warnings):
     """When the automatic net's candidate folds (a re-entrant corner pulled across itself, a net too coarse for the
     curvature): the other layouts, then finer nets (:data:`_FINER`), the first candidate without folds; else the
-    one with the fewest folded faces. A warning says what was used instead."""
+    one with the fewest folded faces (``n_first``: those of ``first``). A warning says what was used instead."""
     reference = (V, T)
-    n_first = _candidate_folds(first, reference)
     best, n_best = first, n_first
     tries = [(other, faces) for other in _LAYOUTS if other not in (layout, first.layout)] + \
             [(layout, math.ceil(f * faces)) for f in _FINER]
@@ -340,8 +336,10 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     timings: dict = {}
     warnings: list[str] = []
     cand = _candidate(V, T, None if coarse is None else (Vc, Fc), faces, layout, levels, max_faces, spread_boundary, timings)
-    if coarse is None and not _candidate_healthy(cand, (V, T)):
-        cand = _other_candidate(V, T, cand, faces, layout, levels, max_faces, spread_boundary, timings, warnings)
+    n_folds = 0 if coarse is not None else _candidate_folds(cand, (V, T))
+    if n_folds:
+        cand = _other_candidate(V, T, cand, n_folds, faces, layout, levels, max_faces, spread_boundary, timings,
+                                warnings)
     (Vc, Fc), Xc, Qs, used_layout, pulled = cand.coarse, cand.X, cand.Q, cand.layout, cand.pulled
     warnings += cand.warnings
     cand_dist = pulled.distances_after
@@ -365,7 +363,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     health = _health(X, Qs, tolerance, (V, T))
     timings["health"] = timings.get("health", 0.0) + time.perf_counter() - t
     healthy = shape_healthy(health, HEALTH_BOUNDS["min_coverage"])
-    planarity = float(quad_planarity(X, Qs).max()) if len(Qs) else 0.0
+    planarity = max_quad_planarity(X, Qs)
     reached = planarity <= tolerance
     if res is not None:  # the planarizer's own verdict (where it gives one) said of the returned state
         verdict = {"healthy": healthy, "coverage": float(health.coverage), "violations": list(health.violations),
