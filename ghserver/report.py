@@ -4,12 +4,24 @@
 :mod:`ghserver.cli` by :func:`add_report_arguments` / :func:`report_command` and :func:`add_demo_arguments` /
 :func:`demo_command`). The output folder holds:
 
-* ``report.html``: self-contained (inline CSS, no scripts, no fonts, no network) apart from the PNGs next to it,
-  linked relatively as ``img/...``; valid HTML5;
+* ``report.html``: inline CSS, no fonts, no network; a table of contents, the summary (status from panel health
+  with the defect named, a warnings column), the comparison plots, and per result its warnings, an interactive 3D
+  view, the pictures, the histograms and a fabrication section; valid HTML5. It links only files beside it
+  (``img/...``, ``viewer/...``), so it works opened from disk (``file://``) and served
+  (``ghserver serve --report-dir``);
 * ``img/*.png``: every candidate and optimized mesh rendered and coloured per face by planarity, closeness and
   area (matplotlib, Agg backend, fixed size and camera per surface, a colour bar whose limits are the min/max of
-  the plotted values), histograms of planarity / warping height / area before and after optimization, and the
-  comparison plots (panel area against panel count per strategy and surface, planarity before/after);
+  the plotted values; a field that is one number up to round-off, :func:`constant_field`, is drawn in one colour
+  and labelled "all equal to …"), histograms of planarity / warping height / area before and after optimization,
+  and the comparison plots (panel area against panel count, planarity before/after, panel-area box plots). No
+  text is below :data:`MIN_FONT_PT` and the page shows every picture at (at most) its pixel size, so the smallest
+  text is :data:`MIN_FONT_PX` ≥ 11 pixels on a 1280-pixel-wide window;
+* ``viewer/``: the 3D views: ``viewer.js`` (classic script), ``three.js`` (three.js's ES modules from
+  ``ghserver/static/three`` joined into one classic script, :func:`viewer_bundle`, with ``three-LICENSE.txt``) and
+  ``data/<surface>_<strategy>.js`` (:func:`view_data`: float32 vertices about the box centre, the faces and the
+  per-face fields). A view starts when scrolled into sight (or clicked): orbit, zoom, pan, colour by planarity,
+  closeness, area or warping height, candidate / optimized toggle; at most a few hold a WebGL context at once;
+  meshes over :data:`VIEW_FACE_CAP` faces get a note instead;
 * ``report.csv`` and ``report.json``: one row per (strategy, surface) with every metric and timing, the panel
   health of the candidate and of the final mesh (healthy, coverage, worst corner, shortest edge ÷ median, holes,
   violations) and the status; the JSON also records every image with the range of its colour bar;
@@ -31,12 +43,14 @@ matplotlib is imported inside the functions that draw (``matplotlib.use("Agg")``
 from __future__ import annotations
 
 import argparse
+import base64
 import csv
 import datetime as _dt
 import html
 import json
 import logging
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -47,9 +61,9 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 DEFAULT_OUT = "ghserver-report"
-IMAGE_SIZE = (900, 700)  # PNG width, height in pixels for the mesh pictures
+IMAGE_SIZE = (400, 340)  # PNG width, height in pixels for the mesh pictures (three side by side on the page)
 _DPI = 100
-HIST_SIZE = (1200, 420)
+HIST_SIZE = (1200, 400)
 COMPARE_SIZE = (1200, 520)
 
 #: measure key -> (title, unit) of the per-face colourings
@@ -58,6 +72,9 @@ MEASURES = {
     "closeness": ("closeness", "largest corner distance to the design surface, model units"),
     "area": ("panel area", "model units²"),
 }
+
+#: the colour-bar label's unit per measure (the pictures are small; the page says the rest)
+_SHORT_UNITS = {"planarity": "scale-free", "closeness": "model units", "area": "model units²"}
 
 #: fixed camera (elevation, azimuth in degrees) per built-in surface; mesh files use the default
 CAMERAS = {"dome": (32.0, -58.0), "saddle": (28.0, -50.0), "wave": (38.0, -70.0), "canopy": (42.0, -60.0)}
@@ -224,6 +241,61 @@ def _pyplot():
     return plt
 
 
+#: smallest font of every figure, in points; at :data:`_DPI` a point is ``_DPI / 72`` pixels, and the page shows
+#: every picture at its own pixel size (CSS ``max-width``), so the smallest text is :data:`MIN_FONT_PX` pixels
+MIN_FONT_PT = 9.0
+MIN_FONT_PX = MIN_FONT_PT * _DPI / 72.0
+
+#: matplotlib sizes of the report's figures (no text below :data:`MIN_FONT_PT`)
+_RC = {"font.size": 10.0, "axes.titlesize": 11.0, "axes.labelsize": 10.0, "xtick.labelsize": MIN_FONT_PT,
+       "ytick.labelsize": MIN_FONT_PT, "legend.fontsize": MIN_FONT_PT, "legend.title_fontsize": 10.0,
+       "figure.titlesize": 11.0}
+
+
+#: a field whose spread (max - min) is at most this share of its scale is drawn as constant
+CONSTANT_SPREAD = 1e-9
+
+
+def constant_field(values, scale: float = 0.0) -> str | None:
+    """``"all equal to …"`` when the per-face values are one number up to round-off, else None.
+
+    The values are constant when ``max - min <= 1e-9 × max(max |value|, scale)``; ``scale`` is the size the
+    measure is relative to (1 for the scale-free planarity, a length of the mesh for distances, its square for
+    areas), so that a round-off spread (1e-16 planarity of a translation surface) counts as constant at every
+    model scale. Values that are also within round-off of zero read ``"all equal to 0 (round-off …)"``.
+
+    >>> constant_field([1e-16, 1.2e-16, 0.0], scale=1.0)
+    'all equal to 0 (round-off: |value| ≤ 1.2e-16)'
+    >>> constant_field([2.5, 2.5, 2.5 + 1e-12], scale=10.0)
+    'all equal to 2.5'
+    >>> constant_field([1e-3, 2e-3], scale=1.0) is None
+    True
+    """
+    v = np.asarray(values, dtype=np.float64).ravel()
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return None
+    top = float(np.max(np.abs(v)))
+    scale = abs(float(scale)) if math.isfinite(float(scale)) else 0.0
+    if not float(v.max() - v.min()) <= CONSTANT_SPREAD * max(top, scale):
+        return None
+    if top == 0.0:
+        return "all equal to 0"
+    if top <= CONSTANT_SPREAD * scale:
+        return f"all equal to 0 (round-off: |value| ≤ {_fmt(top, 2)})"
+    return f"all equal to {_fmt(float(np.median(v)), 4)}"
+
+
+def measure_scale(measure: str, length: float) -> float:
+    """The scale a per-face measure is relative to (for :func:`constant_field`): 1 for the scale-free planarity,
+    ``length`` (a length of the mesh, e.g. its bounding-box diagonal) for distances, ``length²`` for areas."""
+    if measure == "planarity":
+        return 1.0
+    if measure == "area":
+        return float(length) ** 2
+    return float(length)
+
+
 def _polygons(V, F):
     from components.core.mesh import face_sizes
 
@@ -238,8 +310,12 @@ def _bbox(V):
     return lo, hi
 
 
+#: the single colour of a constant field (the middle of viridis)
+CONSTANT_COLOUR = "#21918c"
+
+
 def render_mesh(path, V, F, values, title: str, label: str, box, camera=DEFAULT_CAMERA,
-                size=IMAGE_SIZE) -> tuple[float, float]:
+                size=IMAGE_SIZE, scale: float | None = None) -> tuple[float, float]:
     """Draw a mesh coloured per face by ``values`` and save it as a PNG of exactly ``size`` pixels.
 
     Parameters
@@ -251,13 +327,18 @@ def render_mesh(path, V, F, values, title: str, label: str, box, camera=DEFAULT_
     values : (m,) float64
         Per-face values; the colour bar runs from their min to their max.
     title, label : str
-        Figure title and colour-bar label.
+        Figure title and colour-bar label (keep them short: the picture is :data:`IMAGE_SIZE` pixels and no font is
+        below :data:`MIN_FONT_PT`).
     box : (lo, hi) pair of (3,) arrays
         Scene bounds (the same for every mesh of a surface, so pictures compare).
     camera : (elevation, azimuth)
         View angles in degrees.
     size : (width, height)
         Pixels.
+    scale : float, optional
+        The measure's scale (:func:`measure_scale`); when given, a field that is constant up to round-off
+        (:func:`constant_field`) is drawn in one colour and labelled "all equal to …" instead of a colour bar.
+        Exactly equal values always are.
 
     Returns
     -------
@@ -271,36 +352,39 @@ def render_mesh(path, V, F, values, title: str, label: str, box, camera=DEFAULT_
 
     values = np.asarray(values, dtype=np.float64)
     vmin, vmax = float(values.min()), float(values.max())
-    lo_draw, hi_draw = vmin, vmax
-    if not hi_draw > lo_draw:  # constant field: widen the drawn bar only, the reported limits stay exact
-        pad = max(abs(vmin) * 1e-6, 1e-300)
-        lo_draw, hi_draw = vmin - pad, vmax + pad
-    norm = mcolors.Normalize(vmin=lo_draw, vmax=hi_draw)
+    same = constant_field(values, 0.0 if scale is None else scale)
+    norm = mcolors.Normalize(vmin=vmin, vmax=vmax if vmax > vmin else vmin + 1.0)
     cmap = plt.get_cmap("viridis")
-    fig = plt.figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
-    try:
-        ax = fig.add_axes([0.0, 0.02, 0.84, 0.9], projection="3d")
-        coll = Poly3DCollection(_polygons(V, F), facecolors=cmap(norm(values)), edgecolors=(0.1, 0.1, 0.1, 0.6),
-                                linewidths=0.3)
-        ax.add_collection3d(coll)
-        lo, hi = np.asarray(box[0], float), np.asarray(box[1], float)
-        ext = np.maximum(hi - lo, 1e-9 * max(float(np.max(hi - lo)), 1.0))
-        ax.set_xlim(lo[0], hi[0])
-        ax.set_ylim(lo[1], hi[1])
-        ax.set_zlim(lo[2], hi[2])
-        ax.set_box_aspect(tuple(ext / ext.max()), zoom=1.15)
-        ax.view_init(elev=camera[0], azim=camera[1])
-        ax.set_axis_off()
-        fig.suptitle(title, fontsize=12)
-        cax = fig.add_axes([0.86, 0.15, 0.025, 0.7])
-        sm = ScalarMappable(norm=norm, cmap=cmap)
-        sm.set_array(values)
-        cb = fig.colorbar(sm, cax=cax)
-        cb.set_label(label, fontsize=9)
-        cb.ax.tick_params(labelsize=8)
-        fig.savefig(path, dpi=_DPI, format="png")
-    finally:
-        plt.close(fig)
+    colours = [CONSTANT_COLOUR] * len(values) if same else cmap(norm(values))
+    with plt.rc_context(_RC):
+        fig = plt.figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        try:
+            ax = fig.add_axes([0.0, 0.0, 0.74, 0.88] if not same else [0.0, 0.1, 1.0, 0.78], projection="3d")
+            coll = Poly3DCollection(_polygons(V, F), facecolors=colours, edgecolors=(0.1, 0.1, 0.1, 0.6),
+                                    linewidths=0.3)
+            ax.add_collection3d(coll)
+            lo, hi = np.asarray(box[0], float), np.asarray(box[1], float)
+            ext = np.maximum(hi - lo, 1e-9 * max(float(np.max(hi - lo)), 1.0))
+            ax.set_xlim(lo[0], hi[0])
+            ax.set_ylim(lo[1], hi[1])
+            ax.set_zlim(lo[2], hi[2])
+            ax.set_box_aspect(tuple(ext / ext.max()), zoom=1.25)
+            ax.view_init(elev=camera[0], azim=camera[1])
+            ax.set_axis_off()
+            fig.suptitle(title, y=0.97)
+            if same:
+                fig.text(0.5, 0.04, f"{label}\n{same}", ha="center", va="bottom", fontsize=10.0,
+                         bbox={"facecolor": "#f3f3f3", "edgecolor": "#bbbbbb", "boxstyle": "round"})
+            else:
+                cax = fig.add_axes([0.74, 0.1, 0.035, 0.7])
+                sm = ScalarMappable(norm=norm, cmap=cmap)
+                sm.set_array(values)
+                cb = fig.colorbar(sm, cax=cax)
+                cb.set_label(label)
+                cb.ax.yaxis.get_offset_text().set_fontsize(MIN_FONT_PT)
+            fig.savefig(path, dpi=_DPI, format="png")
+        finally:
+            plt.close(fig)
     return vmin, vmax
 
 
@@ -308,38 +392,63 @@ def _log_values(x, floor=1e-12):
     return np.log10(np.maximum(np.asarray(x, dtype=np.float64), floor))
 
 
-def render_histograms(path, before: dict, after: dict | None, title: str, size=HIST_SIZE) -> None:
+#: the histogram panels: key, axis label, log10 scale
+_HIST_PANELS = (("planarity", "log10 planarity", True), ("warping", "log10 warping height", True),
+                ("area", "panel area", False))
+
+
+def render_histograms(path, before: dict, after: dict | None, title: str, size=HIST_SIZE,
+                      scales: dict | None = None) -> None:
     """Histograms of planarity, warping height (log10 scales) and area, before and after optimization.
 
-    ``before`` / ``after`` map ``"planarity"``, ``"warping"``, ``"area"`` to per-face arrays.
+    ``before`` / ``after`` map ``"planarity"``, ``"warping"``, ``"area"`` to per-face arrays. ``scales`` maps the
+    same keys to the measure's scale (:func:`measure_scale`; default 1 for planarity, the largest value for the
+    others): a stage whose values are constant up to round-off (:func:`constant_field`) is not binned (one clamped
+    bar says nothing) but written in its panel as "candidate: all equal to …"; log10 scales start at 1e-12 of the
+    scale.
     """
     plt = _pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
-    try:
-        spec = (("planarity", "log10 planarity", True), ("warping", "log10 warping height", True),
-                ("area", "panel area", False))
-        for ax, (key, xlabel, logscale) in zip(axes, spec):
-            b = _log_values(before[key]) if logscale else np.asarray(before[key], float)
-            a = None
-            if after is not None:
-                a = _log_values(after[key]) if logscale else np.asarray(after[key], float)
-            allv = b if a is None else np.r_[b, a]
-            lo, hi = float(allv.min()), float(allv.max())
-            if not hi > lo:
-                lo, hi = lo - 0.5, hi + 0.5
-            bins = np.linspace(lo, hi, 31)
-            ax.hist(b, bins=bins, histtype="stepfilled", alpha=0.45, color="#d95f02", label="candidate")
-            if a is not None:
-                ax.hist(a, bins=bins, histtype="stepfilled", alpha=0.45, color="#1b9e77", label="optimized")
-            ax.set_xlabel(xlabel, fontsize=9)
-            ax.set_ylabel("panels", fontsize=9)
-            ax.tick_params(labelsize=8)
-            ax.legend(fontsize=8)
-        fig.suptitle(title + ("" if after is not None else " (no optimization step)"), fontsize=11)
-        fig.subplots_adjust(left=0.05, right=0.98, bottom=0.15, top=0.86, wspace=0.25)
-        fig.savefig(path, dpi=_DPI, format="png")
-    finally:
-        plt.close(fig)
+    scales = dict(scales or {})
+    with plt.rc_context(_RC):
+        fig, axes = plt.subplots(1, 3, figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        try:
+            for ax, (key, xlabel, logscale) in zip(axes, _HIST_PANELS):
+                stages = [("candidate", before[key], "#d95f02")]
+                if after is not None:
+                    stages.append(("optimized", after[key], "#1b9e77"))
+                raw = np.concatenate([np.asarray(v, float).ravel() for _, v, _ in stages])
+                scale = scales.get(key, 1.0 if key == "planarity" else float(np.max(np.abs(raw), initial=0.0)))
+                floor = 1e-12 * scale if scale > 0 else 1e-300
+                drawn, notes = [], []
+                for stage, vals, colour in stages:
+                    same = constant_field(vals, scale)
+                    if same:
+                        notes.append(f"{stage}:\n{same}")
+                        continue
+                    drawn.append((stage, _log_values(vals, floor) if logscale else np.asarray(vals, float), colour))
+                if drawn:
+                    allv = np.concatenate([d[1] for d in drawn])
+                    lo, hi = float(allv.min()), float(allv.max())
+                    if not hi > lo:
+                        lo, hi = lo - 0.5, hi + 0.5
+                    bins = np.linspace(lo, hi, 31)
+                    for stage, vals, colour in drawn:
+                        ax.hist(vals, bins=bins, histtype="stepfilled", alpha=0.45, color=colour, label=stage)
+                    ax.legend(loc="upper right")
+                    ax.set_ylabel("panels")
+                else:
+                    ax.set_yticks([])
+                    ax.set_xticks([])
+                if notes:
+                    ax.text(0.5, 0.5 if not drawn else 0.97, "\n".join(notes), transform=ax.transAxes, ha="center",
+                            va="center" if not drawn else "top", wrap=True, fontsize=MIN_FONT_PT,
+                            bbox={"facecolor": "#f3f3f3", "edgecolor": "#bbbbbb", "boxstyle": "round"})
+                ax.set_xlabel(xlabel)
+            fig.suptitle(title + ("" if after is not None else " (no optimization step)"))
+            fig.subplots_adjust(left=0.06, right=0.98, bottom=0.15, top=0.86, wspace=0.25)
+            fig.savefig(path, dpi=_DPI, format="png")
+        finally:
+            plt.close(fig)
 
 
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
@@ -352,76 +461,107 @@ def render_area_vs_count(path, rows: list[dict], strategies: list[str], surfaces
     plt = _pyplot()
     from matplotlib.lines import Line2D
 
-    fig, ax = plt.subplots(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
-    try:
-        for r in rows:
-            m = r["final_metrics"]
-            si, ti = surfaces.index(r["surface"]), strategies.index(r["strategy"])
-            x, mean, std = m["faces"], m["area_mean"], m["area_std"]
-            c = _COLORS[si % len(_COLORS)]
-            ax.vlines(x, m["area_min"], m["area_max"], color=c, alpha=0.35, linewidth=1)
-            ax.errorbar(x, mean, yerr=std, fmt=_MARKERS[ti % len(_MARKERS)], color=c, markersize=8, capsize=4)
-        ax.set_xscale("log")
-        ax.set_xlabel("panel count (faces)")
-        ax.set_ylabel("panel area (model units²): mean ± std, line = min…max")
-        ax.grid(True, alpha=0.3)
-        handles = [Line2D([], [], color="k", marker=_MARKERS[i % len(_MARKERS)], linestyle="", label=s)
-                   for i, s in enumerate(strategies)]
-        handles += [Line2D([], [], color=_COLORS[i % len(_COLORS)], marker="s", linestyle="", label=s)
-                    for i, s in enumerate(surfaces)]
-        ax.legend(handles=handles, fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
-        ax.set_title("Panel area against panel count, per strategy (marker) and surface (colour)")
-        fig.subplots_adjust(left=0.08, right=0.8, bottom=0.12, top=0.9)
-        fig.savefig(path, dpi=_DPI, format="png")
-    finally:
-        plt.close(fig)
+    with plt.rc_context(_RC):
+        fig, ax = plt.subplots(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        try:
+            for r in rows:
+                m = r["final_metrics"]
+                si, ti = surfaces.index(r["surface"]), strategies.index(r["strategy"])
+                x, mean, std = m["faces"], m["area_mean"], m["area_std"]
+                c = _COLORS[si % len(_COLORS)]
+                ax.vlines(x, m["area_min"], m["area_max"], color=c, alpha=0.35, linewidth=1)
+                ax.errorbar(x, mean, yerr=std, fmt=_MARKERS[ti % len(_MARKERS)], color=c, markersize=8, capsize=4)
+            ax.set_xscale("log")
+            ax.set_xlabel("panel count (faces)")
+            ax.set_ylabel("panel area (model units²)\nmean ± std, line = min…max")
+            ax.grid(True, alpha=0.3)
+            handles = [Line2D([], [], color="k", marker=_MARKERS[i % len(_MARKERS)], linestyle="", label=s)
+                       for i, s in enumerate(strategies)]
+            handles += [Line2D([], [], color=_COLORS[i % len(_COLORS)], marker="s", linestyle="", label=s)
+                        for i, s in enumerate(surfaces)]
+            ax.legend(handles=handles, loc="center left", bbox_to_anchor=(1.01, 0.5))
+            ax.set_title("Panel area against panel count, per strategy (marker) and surface (colour)")
+            fig.subplots_adjust(left=0.09, right=0.8, bottom=0.12, top=0.9)
+            fig.savefig(path, dpi=_DPI, format="png")
+        finally:
+            plt.close(fig)
 
 
-def render_area_boxes(path, groups: list[tuple[str, np.ndarray]], title: str, size=COMPARE_SIZE) -> None:
-    """Box plots of panel areas, one box per (label, areas) group."""
+#: pixel height of one box of :func:`render_area_boxes` (the labels' line height, so they never overlap)
+BOX_ROW_PX = 26
+
+
+def area_boxes_size(n: int, width: int = COMPARE_SIZE[0]) -> tuple[int, int]:
+    """Pixel size of :func:`render_area_boxes` for ``n`` boxes: a row of :data:`BOX_ROW_PX` per box."""
+    return (int(width), int(110 + BOX_ROW_PX * max(int(n), 1)))
+
+
+def render_area_boxes(path, groups: list[tuple[str, np.ndarray]], title: str, size=None) -> None:
+    """Box plots of panel areas, one horizontal box per (label, areas) group, top to bottom in the given order.
+
+    Each label is one line (line breaks become " · ") beside its own box, and each box gets :data:`BOX_ROW_PX`
+    pixels of height (``size`` default :func:`area_boxes_size`), so labels never overlap however many there are.
+    """
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
-    try:
-        ax.boxplot([g[1] for g in groups], showmeans=True)
-        ax.set_xticks(range(1, len(groups) + 1), [g[0] for g in groups], fontsize=8)
-        ax.set_ylabel("panel area (model units²)")
-        ax.grid(True, axis="y", alpha=0.3)
-        ax.set_title(title)
-        fig.subplots_adjust(left=0.08, right=0.98, bottom=0.15, top=0.9)
-        fig.savefig(path, dpi=_DPI, format="png")
-    finally:
-        plt.close(fig)
+    size = size or area_boxes_size(len(groups))
+    labels = [" · ".join(part.strip() for part in g[0].split("\n") if part.strip()) for g in groups]
+    with plt.rc_context(_RC):
+        fig, ax = plt.subplots(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        try:
+            pos = np.arange(len(groups), 0, -1)
+            import matplotlib
+
+            horizontal = ({"orientation": "horizontal"} if tuple(int(x) for x in matplotlib.__version__.split(".")[:2])
+                          >= (3, 10) else {"vert": False})
+            ax.boxplot([g[1] for g in groups], positions=pos, showmeans=True, widths=0.6, **horizontal)
+            ax.set_yticks(pos, labels)
+            ax.set_ylim(0.4, len(groups) + 0.6)
+            ax.set_xlabel("panel area (model units²)")
+            ax.grid(True, axis="x", alpha=0.3)
+            ax.set_title(title)
+            fig.canvas.draw()  # measure the labels: the plot starts right of the longest
+            widest = max((t.get_window_extent().width for t in ax.get_yticklabels()), default=0.0)
+            left = min((widest + 16) / size[0], 0.6)
+            fig.subplots_adjust(left=left, right=0.98, bottom=70 / size[1], top=1 - 40 / size[1])
+            fig.savefig(path, dpi=_DPI, format="png")
+        finally:
+            plt.close(fig)
 
 
 def render_planarity_bars(path, rows: list[dict], strategies: list[str], surfaces: list[str],
                           size=COMPARE_SIZE) -> None:
-    """Max planarity before (hatched) and after optimization, per strategy and surface (log scale)."""
+    """Max planarity before (hatched) and after optimization, per strategy and surface (log scale; a round-off
+    planarity below 1e-12 is drawn at 1e-12)."""
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
-    try:
-        width = 0.8 / max(len(strategies), 1)
-        for r in rows:
-            si, ti = surfaces.index(r["surface"]), strategies.index(r["strategy"])
-            x = si + (ti - (len(strategies) - 1) / 2) * width
-            b = max(r["metrics_before"]["planarity_max"], 1e-16)
-            c = _COLORS[ti % len(_COLORS)]
-            ax.bar(x, b, width=width * 0.9, color="none", edgecolor=c, hatch="//")
-            if r["metrics_after"] is not None:
-                ax.bar(x, max(r["metrics_after"]["planarity_max"], 1e-16), width=width * 0.9, color=c, alpha=0.8)
-        ax.set_yscale("log")
-        ax.set_xticks(range(len(surfaces)), surfaces)
-        ax.set_ylabel("max planarity (scale-free)")
-        from matplotlib.patches import Patch
+    from matplotlib.patches import Patch
 
-        handles = [Patch(color=_COLORS[i % len(_COLORS)], label=s) for i, s in enumerate(strategies)]
-        handles.append(Patch(facecolor="none", edgecolor="k", hatch="//", label="candidate (before)"))
-        ax.legend(handles=handles, fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
-        ax.set_title("Max planarity of the candidate (hatched) and of the optimized mesh (filled)")
-        ax.grid(True, axis="y", alpha=0.3)
-        fig.subplots_adjust(left=0.08, right=0.8, bottom=0.1, top=0.9)
-        fig.savefig(path, dpi=_DPI, format="png")
-    finally:
-        plt.close(fig)
+    with plt.rc_context(_RC):
+        fig, ax = plt.subplots(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        try:
+            width = 0.8 / max(len(strategies), 1)
+            for r in rows:
+                si, ti = surfaces.index(r["surface"]), strategies.index(r["strategy"])
+                x = si + (ti - (len(strategies) - 1) / 2) * width
+                b = max(r["metrics_before"]["planarity_max"], 1e-12)
+                c = _COLORS[ti % len(_COLORS)]
+                ax.bar(x, b, width=width * 0.9, color="none", edgecolor=c, hatch="//")
+                if r["metrics_after"] is not None:
+                    ax.bar(x, max(r["metrics_after"]["planarity_max"], 1e-12), width=width * 0.9, color=c,
+                           alpha=0.8)
+            ax.set_yscale("log")
+            ax.set_ylim(bottom=1e-12)
+            ax.set_xticks(range(len(surfaces)), surfaces, rotation=30 if len(surfaces) > 6 else 0,
+                          ha="right" if len(surfaces) > 6 else "center")
+            ax.set_ylabel("max planarity (scale-free)")
+            handles = [Patch(color=_COLORS[i % len(_COLORS)], label=s) for i, s in enumerate(strategies)]
+            handles.append(Patch(facecolor="none", edgecolor="k", hatch="//", label="candidate (before)"))
+            ax.legend(handles=handles, loc="center left", bbox_to_anchor=(1.01, 0.5))
+            ax.set_title("Max planarity of the candidate (hatched) and of the optimized mesh (filled)")
+            ax.grid(True, axis="y", alpha=0.3)
+            fig.subplots_adjust(left=0.08, right=0.8, bottom=0.18 if len(surfaces) > 6 else 0.1, top=0.9)
+            fig.savefig(path, dpi=_DPI, format="png")
+        finally:
+            plt.close(fig)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -430,21 +570,44 @@ def render_planarity_bars(path, rows: list[dict], strategies: list[str], surface
 
 _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0 auto;max-width:1600px;
-padding:1em 2em;color:#222;background:#fff;line-height:1.4}
+padding:.5em 1em 3em;color:#222;background:#fff;line-height:1.4}
 h1{margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:2em}
+h3{margin-top:1.8em;border-bottom:1px solid #eee}h2 a.up,h3 a.up{font-size:.6em;font-weight:normal;margin-left:.8em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.85em}
 th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right;vertical-align:top}
 th{background:#f3f3f3}td.l,th.l{text-align:left}
 tr.na td{color:#888;font-style:italic}tr.failed td{color:#a00}tr.unhealthy td.status{color:#a00}
 tr.tolerance td.status{color:#8a5a00}td.status{min-width:12em;max-width:26em}td.warnings{min-width:5em;max-width:36em;font-size:.9em}
-.bad{color:#a00;font-size:.9em}
-.grid{display:flex;flex-wrap:wrap;gap:.8em}
-figure{margin:0;flex:0 1 450px}figure img{width:100%;height:auto;border:1px solid #eee}
-figcaption{font-size:.8em;color:#555}
-.wide img{max-width:100%;height:auto}
-.note{color:#555;font-size:.9em}.warn{color:#8a5a00;font-size:.85em}
+.bad{color:#a00}.s-ok{color:#1b7a3a}.s-unhealthy,.s-failed{color:#a00}.s-tolerance{color:#8a5a00}
+.grid{display:flex;flex-wrap:wrap;gap:12px;margin:.6em 0}
+figure{margin:.6em 0;max-width:100%}figure img{max-width:100%;height:auto;border:1px solid #eee;display:block}
+.grid figure{margin:0;flex:0 1 400px;min-width:0}
+.scroll{overflow-x:auto;max-width:100%}
+figcaption{font-size:.85em;color:#555}
+.note{color:#555;font-size:.9em}.warn{color:#8a5a00;font-size:.9em;margin:.2em 0}
 details{margin:.4em 0}summary{cursor:pointer}
 code{background:#f5f5f5;padding:0 .2em}
+nav.toc{background:#fafafa;border:1px solid #e4e4e4;padding:.2em 1em .6em;margin:1em 0}
+nav.toc h2{margin-top:.4em;border:0}nav.toc ol{margin:.2em 0;padding-left:1.4em}
+nav.toc>ol{columns:2 22em;column-gap:2em}nav.toc>ol>li{break-inside:avoid;margin-bottom:.3em}
+nav.toc li{font-size:.95em}
+a.totop{position:fixed;right:1em;bottom:1em;background:#fff;border:1px solid #ccc;border-radius:4px;
+padding:.3em .6em;font-size:.9em;text-decoration:none;box-shadow:0 1px 4px rgba(0,0,0,.15)}
+.viewer3d{border:1px solid #ddd;border-radius:4px;margin:.8em 0;background:#fcfcfc}
+.v-bar{display:flex;flex-wrap:wrap;gap:.4em 1.2em;align-items:center;padding:.4em .6em;border-bottom:1px solid #eee;
+font-size:.95em}
+.v-canvas{position:relative;height:520px;width:100%;overflow:hidden;background:#f4f4f4}
+.v-canvas canvas{display:block;width:100%;height:100%;touch-action:none}
+.v-canvas .v-start{position:absolute;inset:0;width:100%;height:100%;border:0;background:#f4f4f4;color:#444;
+font-size:1em;cursor:pointer}
+.v-canvas .v-start img{position:absolute;inset:0;width:100%;height:100%;object-fit:contain;opacity:.45}
+.v-canvas .v-start span{position:relative;background:#fff;padding:.3em .7em;border-radius:4px;border:1px solid #ccc}
+.v-legend{display:flex;flex-wrap:wrap;align-items:center;gap:.5em;padding:.4em .6em;font-size:.95em;min-height:1.6em}
+.v-ramp{display:inline-block;width:260px;height:14px;border:1px solid #999;
+background:linear-gradient(to right,#440154,#48186a,#472d7b,#424086,#3b528b,#33638d,#2c728e,#26828e,#21918c,#1fa088,
+#28ae80,#3fbc73,#5ec962,#84d44b,#addc30,#d8e219,#fde725)}
+.v-swatch{display:inline-block;width:28px;height:14px;border:1px solid #999;background:#21918c}
+.v-help{color:#555;font-size:.85em;margin-left:auto}
 """
 
 
@@ -526,8 +689,8 @@ def _notes_cell(r: dict) -> str:
 def _summary_table(rows: list[dict]) -> str:
     head = "".join(f"<th>{_e(t)}</th>" for _, t in _HEALTH_COLUMNS) + '<th class="l">warnings</th>'
     head += "".join(f"<th>{_e(t)}</th>" for _, t, _ in _SUMMARY_COLUMNS)
-    out = [f'<table><thead><tr><th class="l">surface</th><th class="l">strategy</th><th class="l">status</th>'
-           f'{head}<th>time (s)</th></tr></thead><tbody>']
+    out = ['<div class="scroll"><table><thead><tr><th class="l">surface</th><th class="l">strategy</th>'
+           f'<th class="l">status</th>{head}<th>time (s)</th></tr></thead><tbody>']
     for r in rows:
         cls = _STATUS_CLASS[r["status"]]
         cls = f' class="{cls}"' if cls else ""
@@ -541,9 +704,10 @@ def _summary_table(rows: list[dict]) -> str:
                 v = math.degrees(v)
             cells.append(f"<td>{_fmt(v)}</td>")
         total = r["timings"].get("total")
-        out.append(f'<tr{cls}><td class="l">{_e(r["surface"])}</td><td class="l">{_e(r["strategy"])}</td>'
+        out.append(f'<tr{cls}><td class="l">{_e(r["surface"])}</td><td class="l">'
+                   f'<a href="#{_anchor(r["surface"], r["strategy"])}">{_e(r["strategy"])}</a></td>'
                    f'<td class="l status">{_e(status_text(r))}</td>{"".join(cells)}<td>{_fmt(total)}</td></tr>')
-    out.append("</tbody></table>")
+    out.append("</tbody></table></div>")
     return "\n".join(out)
 
 
@@ -566,6 +730,70 @@ def _metrics_table(r: dict) -> str:
     return "".join(out)
 
 
+def _anchor(surface: str, strategy: str) -> str:
+    """The id of a result's section (``r-<surface>_<strategy>``)."""
+    return "r-" + _slug(surface, strategy)
+
+
+def _up() -> str:
+    return '<a class="up" href="#contents">↑ contents</a>'
+
+
+def _toc(report: dict, titles: dict) -> str:
+    rows = report["results"]
+    out = ['<nav id="contents" class="toc" aria-label="contents"><h2>Contents</h2><ol>',
+           '<li><a href="#strategies">Strategies</a></li>',
+           f'<li><a href="#summary">Summary</a> ({len(rows)} results: '
+           + ", ".join(f"{sum(r['status'] == s for r in rows)} {_e(s)}"
+                       for s in ("ok", "tolerance missed", "unhealthy", "failed")
+                       if any(r["status"] == s for r in rows))
+           + ")</li>"]
+    if report["comparisons"]:
+        out.append('<li><a href="#comparisons">Comparison plots</a></li>')
+    for surf in report["surfaces"]:
+        sname = surf["name"]
+        out.append(f'<li><a href="#surface-{_e(sname)}">Surface: {_e(sname)}</a><ol>')
+        for r in (r for r in rows if r["surface"] == sname):
+            cls = "s-" + (_STATUS_CLASS[r["status"]] or "ok")
+            out.append(f'<li><a href="#{_anchor(sname, r["strategy"])}">{_e(titles[r["strategy"]][0])}</a> '
+                       f'<span class="{cls}">{_e(r["status"])}</span></li>')
+        out.append("</ol></li>")
+    out.append("</ol></nav>")
+    return "".join(out)
+
+
+def _viewer_html(r: dict) -> str:
+    """The 3D view's block: controls, a canvas area (filled by ``viewer/viewer.js`` when scrolled into view or
+    clicked) and the colour legend; or the note why there is none."""
+    view = r.get("view")
+    if not view:
+        return ""
+    if "note" in view:
+        return f'<p class="note">3D view: {_e(view["note"])}</p>'
+    vid = view["id"]
+    stages = view["stages"]
+    options = "".join(f'<option value="{_e(m)}"{" selected" if m == "planarity" else ""}>{_e(VIEW_MEASURES[m][0])}'
+                      "</option>" for m in view["measures"])
+    radios = ""
+    if len(stages) > 1:
+        radios = '<span class="v-stages" role="radiogroup" aria-label="stage">' + "".join(
+            f'<label><input type="radio" name="stage-{_e(vid)}" value="{_e(s)}"{" checked" if s == stages[-1] else ""}>'
+            f" {_e(s)}</label> " for s in stages) + "</span>"
+    else:
+        radios = f'<span class="v-stages">{_e(stages[0])} (no optimization step)</span>'
+    return (f'<div class="viewer3d" id="view-{_e(vid)}" data-view="{_e(vid)}" data-src="{_e(view["file"])}" '
+            f'data-stage="{_e(stages[-1])}">'
+            f'<div class="v-bar"><label>colour by <select class="v-metric">{options}</select></label>{radios}'
+            '<label><input type="checkbox" class="v-edges" checked> panel edges</label>'
+            '<button type="button" class="v-reset">reset view</button>'
+            f'<span class="v-help">{view["faces"]:,} panels · drag: orbit · wheel: zoom · right-drag: pan'
+            "</span></div>"
+            '<div class="v-canvas"><button type="button" class="v-start"><span>3D view: starts when scrolled into '
+            'view (click to start now)</span></button></div>'
+            '<div class="v-legend" aria-live="polite"></div>'
+            "</div>")
+
+
 def _html(report: dict, titles: dict) -> str:
     rows = report["results"]
     s = report["settings"]
@@ -579,35 +807,46 @@ def _html(report: dict, titles: dict) -> str:
         '<link rel="icon" href="data:,">',  # no favicon request (a 404 would be a console error when served)
         f"<style>{_CSS}</style>",
         "</head>",
-        "<body>",
+        '<body id="top">',
         "<h1>Planar-quad meshing strategies: comparison report</h1>",
         f'<p class="note">Generated {_e(report["generated"])} in {report["elapsed"]:.1f} s; mode '
         f'<code>{_e(s["mode"])}</code>, sample resolution {s["resolution"]}, {s["divisions"]} panels across the '
         f'larger extent, optimization budget {s["time_budget"]:g} s per run. The same numbers: '
         '<a href="report.csv">report.csv</a>, <a href="report.json">report.json</a>; meshes in '
-        "<code>meshes/</code>.</p>",
-        "<h2>Strategies</h2><ul>",
+        "<code>meshes/</code>" + (f' and <a href="{_e(report["model_file"])}">{_e(report["model_file"])}</a>'
+                                   if report.get("model_file") else "") + ".</p>",
+        _toc(report, titles),
+        f'<h2 id="strategies">Strategies {_up()}</h2><ul>',
     ]
     for name, (title, desc) in titles.items():
         parts.append(f"<li><b>{_e(title)}</b> (<code>{_e(name)}</code>): {_e(desc)}</li>")
     parts.append("</ul>")
     parts.append('<p class="note">Planarity is scale-free (distance between the diagonals / mean diagonal); '
                  "warping height and closeness (distance to the design surface) are in model units. Pictures are "
-                 "coloured per face; every colour bar runs from the smallest to the largest plotted value.</p>")
-    parts.append("<h2>Summary</h2>")
+                 "coloured per face; every colour bar runs from the smallest to the largest plotted value, and a "
+                 "field that is one number up to round-off (its spread at most 1e-9 of its scale) is drawn in one "
+                 "colour and labelled \"all equal to …\". Every result has an interactive 3D view (orbit, zoom, "
+                 "colour by metric, candidate / optimized) that works offline from this folder.</p>")
+    parts.append(f'<h2 id="summary">Summary {_up()}</h2>')
+    parts.append('<p class="note">Status: "ok" only for a result within the planarity tolerance whose panels are '
+                 'healthy; otherwise the status names the defect. The warnings column folds the strategy\'s '
+                 "warnings and the panel-health violations under their count.</p>")
     parts.append(_summary_table(rows))
+    if report["comparisons"]:
+        parts.append(f'<h2 id="comparisons">Comparison plots {_up()}</h2>')
     for img in report["comparisons"]:
-        size = img["size"]
-        parts.append(f'<figure class="wide">{_img(img["file"], img["title"], size)}'
+        parts.append(f'<figure>{_img(img["file"], img["title"], img["size"])}'
                      f'<figcaption>{_e(img["title"])}</figcaption></figure>')
     for surf in report["surfaces"]:
         sname = surf["name"]
-        parts.append(f'<h2 id="surface-{_e(sname)}">Surface: {_e(sname)}</h2>')
+        parts.append(f'<h2 id="surface-{_e(sname)}">Surface: {_e(sname)} {_up()}</h2>')
         parts.append(f'<p class="note">{_e(surf["description"])}; design mesh {surf["vertices"]:,} vertices, '
                      f'{surf["triangles"]:,} triangles; panel size {surf["panel_size"]:.3g}.</p>')
         for r in (r for r in rows if r["surface"] == sname):
             title = titles[r["strategy"]][0]
-            parts.append(f"<h3>{_e(title)} on {_e(sname)}</h3>")
+            cls = "s-" + (_STATUS_CLASS[r["status"]] or "ok")
+            parts.append(f'<h3 id="{_anchor(sname, r["strategy"])}">{_e(title)} on {_e(sname)}: '
+                         f'<span class="{cls}">{_e(r["status"])}</span> {_up()}</h3>')
             if not r["images"]:  # failed: no mesh to show
                 parts.append(f'<p class="bad">{_e(status_text(r))}</p>')
                 continue
@@ -616,26 +855,216 @@ def _html(report: dict, titles: dict) -> str:
             parts.append(f'<p class="note">{_e(r["description"])}</p>')
             for w in list(r["warnings"]) + [f"panel health: {v}" for v in r["violations"]]:
                 parts.append(f'<p class="warn">⚠ {_e(w)}</p>')
-            parts.append('<div class="grid">')
-            for img in r["images"]:
-                if img["kind"] != "mesh":
-                    continue
-                cap = (f'{img["stage"]}, {MEASURES[img["measure"]][0]}: {_fmt(img["vmin"])} … '
-                       f'{_fmt(img["vmax"])}')
-                parts.append(f'<figure>{_img(img["file"], cap, img["size"])}<figcaption>{_e(cap)}</figcaption>'
-                             "</figure>")
-            parts.append("</div>")
+            parts.append(_viewer_html(r))
+            stages = [st for st in ("candidate", "optimized") if st in r["meshes"]]
+            for stage in stages:
+                parts.append('<div class="grid">')
+                for img in r["images"]:
+                    if img["kind"] != "mesh" or img["stage"] != stage:
+                        continue
+                    cap = img.get("constant") or f'{_fmt(img["vmin"])} … {_fmt(img["vmax"])}'
+                    cap = f'{stage}, {MEASURES[img["measure"]][0]}: {cap}'
+                    parts.append(f'<figure>{_img(img["file"], cap, img["size"])}<figcaption>{_e(cap)}</figcaption>'
+                                 "</figure>")
+                parts.append("</div>")
             for img in r["images"]:
                 if img["kind"] == "histogram":
-                    parts.append(f'<figure class="wide">{_img(img["file"], img["title"], img["size"])}'
+                    parts.append(f'<figure>{_img(img["file"], img["title"], img["size"])}'
                                  f'<figcaption>{_e(img["title"])}</figcaption></figure>')
             parts.append(_fabrication_html(r.get("fabrication")))
             files = " ".join(f'<a href="{_e(f)}">{_e(Path(f).name)}</a>' for f in r["meshes"].values())
             parts.append(f'<details><summary>All metrics and timings ({_e(r["strategy"])}, {_e(sname)})</summary>'
                          f'{_metrics_table(r)}<p class="note">Meshes: {files}</p></details>')
+    parts.append('<a class="totop" href="#contents">↑ contents</a>')
+    if any((r.get("view") or {}).get("file") for r in rows):
+        parts.append(f'<script src="{VIEWER_DIR}/viewer.js" data-three="{VIEWER_DIR}/three.js"></script>')
     parts.append("</body>")
     parts.append("</html>")
     return "\n".join(parts) + "\n"
+
+
+# ----------------------------------------------------------------------------------------------
+# the interactive 3D views (three.js, offline from the report folder)
+
+
+#: the per-face fields a 3D view can be coloured by: key -> (title, unit)
+VIEW_MEASURES = {**MEASURES, "warping": ("warping height", "distance between the diagonals, model units")}
+
+#: a mesh of more faces than this gets no 3D view (a note says so; its pictures and OBJ stay)
+VIEW_FACE_CAP = 200_000
+
+#: the report's sub-folder of the 3D views: viewer.js, three.js (the joined three.js modules), data/<id>.js
+VIEWER_DIR = "viewer"
+
+STATIC_DIR = Path(__file__).resolve().parent / "static"
+
+#: the three.js ES modules joined into ``viewer/three.js``: file, {import specifier: module file}
+THREE_MODULES = (("three.core.js", {}), ("three.module.js", {"./three.core.js": "three.core.js"}),
+                 ("OrbitControls.js", {"three": "three.module.js"}))
+
+_STATEMENT = re.compile(r"^(import|export)[ \t]*\{([^}]*)\}[ \t]*(?:from[ \t]*(['\"])([^'\"]+)\3)?[ \t]*;[ \t]*$",
+                        re.M)
+_OTHER_STATEMENT = re.compile(r"^[ \t]*(?:import|export)\b(?![ \t]*\()", re.M)
+
+
+def _export_names(text: str, module: str) -> list[tuple[str, str]]:
+    out = []
+    for part in text.split(","):
+        bits = part.split()
+        if len(bits) == 1:
+            out.append((bits[0], bits[0]))
+        elif len(bits) == 3 and bits[1] == "as":
+            out.append((bits[0], bits[2]))
+        elif bits:
+            raise ValueError(f"{module}: cannot read the import/export clause {part.strip()!r}")
+    return out
+
+
+def classic_module(name: str, source: str, specifiers: dict) -> str:
+    """One ES module as a classic-script function registering its exports in the table ``__m[name]``.
+
+    Only the shape rollup writes is accepted: ``import { a, b as c } from 'x';`` and ``export { a, b as c }
+    [from 'x'];`` statements on their own lines, every ``from`` a key of ``specifiers`` (mapped to the module file
+    already in the table). Anything else (``export default``, ``export const``, side-effect imports) raises
+    ValueError, so a changed three.js fails when the report is written, not in the browser.
+
+    >>> print(classic_module("b.js", "import { x as y } from './a.js';\\nconst z = y + 1;\\nexport { z, y as w };",
+    ...                      {"./a.js": "a.js"}).strip())
+    (function (__m) {
+    "use strict";
+    const __e = {};
+    const { x: y } = __m["a.js"];
+    const z = y + 1;
+    Object.assign(__e, { z: z, w: y });
+    __m["b.js"] = __e;
+    })(__m);
+    """
+    def statement(m):
+        kind, names, spec = m.group(1), _export_names(m.group(2), name), m.group(4)
+        table = None
+        if spec is not None:
+            if spec not in specifiers:
+                raise ValueError(f"{name}: unexpected import of {spec!r}")
+            table = f"__m[{json.dumps(specifiers[spec])}]"
+        if kind == "import":
+            if table is None:
+                raise ValueError(f"{name}: an import without 'from'")
+            return "const { " + ", ".join(a if a == b else f"{a}: {b}" for a, b in names) + f" }} = {table};"
+        return "Object.assign(__e, { " + ", ".join(f"{b}: {a if table is None else f'{table}.{a}'}"
+                                                  for a, b in names) + " });"
+
+    body = _STATEMENT.sub(statement, source)
+    left = _OTHER_STATEMENT.findall(body)
+    if left:
+        raise ValueError(f"{name}: {len(left)} import/export statement(s) of a shape the report cannot join")
+    return (f'(function (__m) {{\n"use strict";\nconst __e = {{}};\n{body}\n__m[{json.dumps(name)}] = __e;\n'
+            "})(__m);\n")
+
+
+_BUNDLE: list[str] = []  # the joined three.js, built once per process
+
+
+def viewer_bundle() -> str:
+    """The three.js modules of ``ghserver/static/three`` joined into one classic script that sets
+    ``window.PQ_THREE`` (three.js's exports and ``OrbitControls``).
+
+    A classic script loads from a ``file://`` page (where Chromium refuses ES modules: CORS) and from a server
+    that labels ``.js`` as anything (ES modules need a JavaScript MIME type), so the report opens from disk and
+    under ``ghserver serve`` alike.
+    """
+    if not _BUNDLE:
+        head = ("/* three.js r{rev} (MIT licence: three-LICENSE.txt) joined from its ES modules by ghserver.report "
+                "(viewer_bundle) */\n")
+        rev = re.search(r"const REVISION = '(\d+)'", (STATIC_DIR / "three" / "three.core.js").read_text("utf-8"))
+        parts = [head.format(rev=rev.group(1) if rev else "?"), "(function () {\nconst __m = {};\n"]
+        for name, specs in THREE_MODULES:
+            parts.append(classic_module(name, (STATIC_DIR / "three" / name).read_text(encoding="utf-8"), specs))
+        parts.append('window.PQ_THREE = Object.assign({}, __m["three.module.js"], '
+                     '{ OrbitControls: __m["OrbitControls.js"].OrbitControls });\n})();\n')
+        _BUNDLE.append("".join(parts))
+    return _BUNDLE[0]
+
+
+def write_viewer_assets(out) -> list[Path]:
+    """Write ``viewer/viewer.js``, ``viewer/three.js`` (:func:`viewer_bundle`) and three.js's licence into the
+    report folder ``out``; returns the paths."""
+    d = Path(out) / VIEWER_DIR
+    (d / "data").mkdir(parents=True, exist_ok=True)
+    files = {"viewer.js": (STATIC_DIR / "viewer.js").read_text(encoding="utf-8"), "three.js": viewer_bundle(),
+             "three-LICENSE.txt": (STATIC_DIR / "three" / "LICENSE").read_text(encoding="utf-8")}
+    paths = []
+    for name, text in files.items():
+        (d / name).write_text(text, encoding="utf-8")
+        paths.append(d / name)
+    return paths
+
+
+def _b64(a, dtype) -> str:
+    return base64.b64encode(np.ascontiguousarray(a, dtype=np.dtype(dtype).newbyteorder("<")).tobytes()).decode()
+
+
+def view_data(stages, fields: dict, box, camera=DEFAULT_CAMERA, length: float | None = None,
+              title: str = "") -> dict:
+    """The data of one 3D view (what ``viewer/viewer.js`` draws), JSON-ready.
+
+    Parameters
+    ----------
+    stages : list of (stage, V, F)
+        The meshes to switch between (``"candidate"``, ``"optimized"``).
+    fields : dict
+        ``fields[stage][measure]``: per-face values for every key of :data:`VIEW_MEASURES`.
+    box : (lo, hi)
+        Scene bounds; the coordinates are stored as float32 relative to the box centre (site coordinates of 5e6
+        keep their millimetres) and the camera frames the box.
+    camera : (elevation, azimuth)
+        The first view, in degrees (as the pictures).
+    length : float, optional
+        The length the measures' round-off is judged against (default the box diagonal); see
+        :func:`constant_field`.
+
+    Returns
+    -------
+    dict
+        ``title``, ``camera``, ``radius`` (half the box diagonal), ``half`` (the box's half extents), ``centre``,
+        ``stages`` (per stage ``V`` base64 float32 x,y,z; ``F``
+        base64 uint32 of the padded faces, ``k`` their width and ``sizes`` base64 uint16, or ``same_faces`` naming
+        the stage whose faces it shares) and ``metrics`` (per measure ``title``, ``unit`` and per stage
+        ``values`` base64 float32, ``lo``/``hi`` as printed and ``constant``: "all equal to …" or None).
+    """
+    from components.core.mesh import face_sizes
+
+    lo, hi = np.asarray(box[0], float), np.asarray(box[1], float)
+    centre = (lo + hi) / 2
+    diag = float(np.linalg.norm(hi - lo))
+    length = diag if length is None else float(length)
+    out = {"title": title, "camera": [float(camera[0]), float(camera[1])], "radius": diag / 2,
+           "half": ((hi - lo) / 2).tolist(), "centre": centre.tolist(), "stages": {}, "metrics": {}}
+    seen = []
+    for stage, V, F in stages:
+        F = np.asarray(F)
+        st = {"faces": int(len(F)), "vertices": int(len(V)), "V": _b64(np.asarray(V, float) - centre, np.float32)}
+        same = next((s for s, Fs in seen if Fs.shape == F.shape and np.array_equal(Fs, F)), None)
+        if same is not None:
+            st["same_faces"] = same
+        else:
+            st.update({"F": _b64(F, np.uint32), "k": int(F.shape[1]), "sizes": _b64(face_sizes(F), np.uint16)})
+            seen.append((stage, F))
+        out["stages"][stage] = st
+    for measure, (mtitle, unit) in VIEW_MEASURES.items():
+        per = {}
+        for stage, _, _ in stages:
+            v = np.asarray(fields[stage][measure], dtype=np.float64)
+            per[stage] = {"values": _b64(v, np.float32), "lo": _fmt(float(v.min())), "hi": _fmt(float(v.max())),
+                          "constant": constant_field(v, measure_scale(measure, length))}
+        out["metrics"][measure] = {"title": mtitle, "unit": unit, "stages": per}
+    return out
+
+
+def write_view(path, view_id: str, data: dict) -> None:
+    """Write a view's data as a classic script (``PQViewer.add(id, {...});``): a page opened from ``file://``
+    cannot fetch() a JSON file beside it, but it can load a script."""
+    Path(path).write_text(f"PQViewer.add({json.dumps(view_id)}, {json.dumps(_finite_json(data))});\n",
+                          encoding="utf-8")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -717,7 +1146,7 @@ def _finite_json(x):
 
 def _clean(out: Path) -> None:
     (out / "results.3dm").unlink(missing_ok=True)
-    for sub, pattern in (("img", "*.png"), ("meshes", "*.obj")):
+    for sub, pattern in (("img", "*.png"), ("meshes", "*.obj"), (f"{VIEWER_DIR}/data", "*.js")):
         d = out / sub
         d.mkdir(parents=True, exist_ok=True)
         for f in d.glob(pattern):
@@ -766,6 +1195,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
     from components.core.mesh import write_obj
     from components.surfaces.samples import SAMPLE_NAMES
     from components.harness import get_strategy, run_strategy, strategy_names
+    from components.metrics.quality import warping_height
 
     t0 = time.perf_counter()
     settings = settings or (QUICK if quick else DEMO)
@@ -827,56 +1257,78 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
                 allV = np.vstack([surf.V] + [m[0] for _, m in stages])
                 box = (allV.min(axis=0) - pad, allV.max(axis=0) + pad)
                 per_stage = {}
+                length = float(np.linalg.norm(np.ptp(surf.V, axis=0)))  # round-off is judged against it
                 for stage, (Vm, Fm) in stages:
                     mesh_file = f"meshes/{_slug(surf.name, sname, stage)}.obj"
                     write_obj(out / mesh_file, Vm, Fm)
                     model_meshes.append((sname, f"{surf.name} {stage}", Vm, Fm))
                     row["meshes"][stage] = mesh_file
-                    from components.metrics.quality import warping_height
-
                     per_stage[stage] = {"warping": warping_height(Vm, Fm)}
                     for measure, (mtitle, unit) in MEASURES.items():
                         vals = face_values(Vm, Fm, measure, (surf.V, surf.T))
                         per_stage[stage][measure] = vals
                         fname = f"img/{_slug(surf.name, sname, stage, measure)}.png"
-                        title = f"{titles[sname][0]} on {surf.name}: {stage}, {mtitle} ({len(Fm):,} panels)"
-                        vmin, vmax = render_mesh(out / fname, Vm, Fm, vals, title, f"{mtitle} ({unit})", box,
-                                                 surf.camera)
+                        title = f"{sname} on {surf.name}: {stage}\n{mtitle} · {len(Fm):,} panels"
+                        scale = measure_scale(measure, length)
+                        vmin, vmax = render_mesh(out / fname, Vm, Fm, vals, title,
+                                                 f"{mtitle} ({_SHORT_UNITS[measure]})", box, surf.camera,
+                                                 scale=scale)
                         n_images += 1
                         row["images"].append({"kind": "mesh", "file": fname, "stage": stage, "measure": measure,
-                                              "vmin": vmin, "vmax": vmax, "faces": int(len(Fm)),
-                                              "vertices": int(len(Vm)), "size": list(IMAGE_SIZE)})
+                                              "vmin": vmin, "vmax": vmax, "constant": constant_field(vals, scale),
+                                              "faces": int(len(Fm)), "vertices": int(len(Vm)),
+                                              "size": list(IMAGE_SIZE), "min_font_px": MIN_FONT_PX})
                         bar.step(f"{surf.name}: {sname} {stage} {measure}")
                 row["fabrication"] = fabrication_summary(*stages[-1][1][:2])
                 fname = f"img/{_slug(surf.name, sname, 'histograms')}.png"
                 htitle = f"{titles[sname][0]} on {surf.name}: candidate vs optimized"
-                render_histograms(out / fname, per_stage["candidate"], per_stage.get("optimized"), htitle)
+                render_histograms(out / fname, per_stage["candidate"], per_stage.get("optimized"), htitle,
+                                  scales={k: measure_scale(k, length) for k in ("planarity", "warping", "area")})
                 n_images += 1
-                row["images"].append({"kind": "histogram", "file": fname, "title": htitle, "size": list(HIST_SIZE)})
+                row["images"].append({"kind": "histogram", "file": fname, "title": htitle, "size": list(HIST_SIZE),
+                                      "min_font_px": MIN_FONT_PX})
+                # the interactive 3D view: the same meshes and per-face fields, loaded by viewer/viewer.js
+                vid = _slug(surf.name, sname)
+                faces = max(len(m[1]) for _, m in stages)
+                if faces > VIEW_FACE_CAP:
+                    row["view"] = {"note": f"none: {faces:,} panels are over the {VIEW_FACE_CAP:,}-panel limit of "
+                                           "a 3D view (the pictures and the OBJ files have them all)"}
+                else:
+                    vfile = f"{VIEWER_DIR}/data/{vid}.js"
+                    data = view_data([(stage, *m) for stage, m in stages], per_stage, box, surf.camera, length,
+                                     f"{titles[sname][0]} on {surf.name}")
+                    write_view(out / vfile, vid, data)
+                    row["view"] = {"id": vid, "file": vfile, "stages": [stage for stage, _ in stages],
+                                   "measures": list(VIEW_MEASURES), "faces": int(faces)}
                 bar.step(f"{surf.name}: {sname} histograms", n=8 - 1 - 3 * len(stages))
         # comparison plots over every measured run (unhealthy ones included: their panels are the point)
         ok = [r for r in rows if r["final_metrics"] is not None]
+        if any("file" in (r.get("view") or {}) for r in rows):
+            write_viewer_assets(out)
         comparisons = []
         surf_names = [s.name for s in surfs]
         if ok:
             f = "img/compare_area_vs_count.png"
             render_area_vs_count(out / f, ok, strat_names, surf_names)
             comparisons.append({"kind": "comparison", "file": f, "size": list(COMPARE_SIZE),
-                                "title": "Panel area against panel count per strategy and surface"})
+                                "title": "Panel area against panel count per strategy and surface",
+                                "min_font_px": MIN_FONT_PX})
             f = "img/compare_planarity.png"
             render_planarity_bars(out / f, ok, strat_names, surf_names)
             comparisons.append({"kind": "comparison", "file": f, "size": list(COMPARE_SIZE),
-                                "title": "Max planarity before and after optimization per strategy and surface"})
+                                "title": "Max planarity before and after optimization per strategy and surface",
+                                "min_font_px": MIN_FONT_PX})
             groups = []
             for r in ok:
                 mesh_file = r["meshes"].get("optimized") or r["meshes"]["candidate"]
                 stage = "optimized" if "optimized" in r["meshes"] else "candidate"
                 areas = _areas_of(out / mesh_file)
-                groups.append((f"{r['surface']}\n{r['strategy']}\n({stage})", areas))
+                groups.append((f"{r['surface']} · {r['strategy']} ({stage})", areas))
             f = "img/compare_area_boxes.png"
             render_area_boxes(out / f, groups, "Panel area distribution of the final mesh per surface and strategy")
-            comparisons.append({"kind": "comparison", "file": f, "size": list(COMPARE_SIZE),
-                                "title": "Panel area distribution (box: quartiles, line: median, triangle: mean)"})
+            comparisons.append({"kind": "comparison", "file": f, "size": list(area_boxes_size(len(groups))),
+                                "title": "Panel area distribution (box: quartiles, line: median, triangle: mean)",
+                                "min_font_px": MIN_FONT_PX})
             n_images += len(comparisons)
         bar.step("comparison plots", n=3)
         if model_meshes:
@@ -892,6 +1344,7 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
             "surfaces": surf_info,
             "results": [{k: v for k, v in r.items() if k not in ("final_metrics", "final_health")} for r in rows],
             "comparisons": comparisons,
+            "model_file": "results.3dm" if model_meshes else None,
         }
         html_path, csv_path, json_path = out / "report.html", out / "report.csv", out / "report.json"
         json_path.write_text(json.dumps(_finite_json(report), indent=1, default=_json_default), encoding="utf-8")

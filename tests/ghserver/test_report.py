@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 import struct
 from html.parser import HTMLParser
 from pathlib import Path
@@ -344,7 +345,9 @@ def test_html_is_well_formed_and_self_contained(quick_report):
     assert not p.errors, p.errors[:5]
     assert p.stack == [], f"unclosed elements: {p.stack}"
     assert p.tags[:1] == ["html"] and "head" in p.tags and "title" in p.tags and "body" in p.tags
-    assert "script" not in p.tags  # no scripts
+    # one script: the 3D views' classic script beside the page (it loads three.js and each view's data itself)
+    scripts = [v for t, k, v in p.links if t == "script"]
+    assert p.tags.count("script") == len(scripts) == 1 and scripts == ["viewer/viewer.js"]
     # inline CSS, no stylesheets or fonts: the only <link> is the empty inline favicon
     assert [(t, v) for t, k, v in p.links if t == "link"] == [("link", "data:,")]
     srcs = [v for t, k, v in p.links if t == "img"]
@@ -356,6 +359,261 @@ def test_html_is_well_formed_and_self_contained(quick_report):
         assert (summary.out_dir / v).is_file(), f"<{tag} {attr}={v}> does not resolve"
     for r in data["results"]:
         assert r["surface"] in text and r["strategy"] in text
+
+
+class Anchors(HTMLParser):
+    """Ids, in-page links (with the link text), the table of contents' links and the 3D views' data files."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.ids: list[str] = []
+        self.links: list[str] = []
+        self.toc: list[str] = []
+        self.views: list[dict] = []
+        self._nav = 0
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if "id" in a:
+            self.ids.append(a["id"])
+        if tag == "nav":
+            self._nav += 1
+        if tag == "a" and (a.get("href") or "").startswith("#"):
+            self.links.append(a["href"][1:])
+            if self._nav:
+                self.toc.append(a["href"][1:])
+        if tag == "div" and "viewer3d" in (a.get("class") or "").split():
+            self.views.append(a)
+
+    def handle_endtag(self, tag):
+        if tag == "nav":
+            self._nav -= 1
+
+
+def test_table_of_contents_reaches_every_section(quick_report):
+    summary, data = quick_report
+    p = Anchors()
+    p.feed(summary.html.read_text(encoding="utf-8"))
+    assert len(p.ids) == len(set(p.ids)), "duplicate ids"
+    assert set(p.links) <= set(p.ids), set(p.links) - set(p.ids)
+    assert "contents" in p.ids
+    sections = {"strategies", "summary", "comparisons"} | {f"surface-{s}" for s in SAMPLE_NAMES}
+    results = {"r-" + rp._slug(r["surface"], r["strategy"]) for r in data["results"]}
+    assert len(results) == len(data["results"])
+    assert sections | results <= set(p.toc) <= set(p.ids)
+    # the summary table links every row to its section too
+    assert all(p.links.count(a) == p.toc.count(a) + 1 for a in results)
+
+
+def test_every_result_with_a_mesh_has_a_3d_view(quick_report):
+    """The view's data file holds the meshes written beside it (float32 about the box centre) and the per-face
+    fields of the pictures; its controls offer every measure and, when there is one, the optimized stage."""
+    import base64
+
+    summary, data = quick_report
+    p = Anchors()
+    p.feed(summary.html.read_text(encoding="utf-8"))
+    views = {v["data-view"]: v for v in p.views}
+    out = summary.out_dir
+    for name in ("viewer.js", "three.js", "three-LICENSE.txt"):
+        assert (out / rp.VIEWER_DIR / name).is_file()
+    assert "window.PQ_THREE" in (out / rp.VIEWER_DIR / "three.js").read_text(encoding="utf-8")
+    refs = {name: sample_mesh(name, rp.QUICK.resolution)[:2] for name in SAMPLE_NAMES}
+    for r in data["results"]:
+        if r["status"] == "failed":
+            assert "view" not in r
+            continue
+        view = r["view"]
+        el = views[view["id"]]
+        assert el["data-src"] == view["file"] and (out / view["file"]).is_file()
+        assert el["data-stage"] == view["stages"][-1] == ("optimized" if "optimized" in r["meshes"] else "candidate")
+        text = (out / view["file"]).read_text(encoding="utf-8")
+        prefix = f"PQViewer.add({json.dumps(view['id'])}, "
+        assert text.startswith(prefix) and text.rstrip().endswith(");")
+        d = json.loads(text.rstrip()[len(prefix):-2])
+        assert set(d["stages"]) == set(r["meshes"]) and set(d["metrics"]) == set(rp.VIEW_MEASURES)
+        centre = np.array(d["centre"])
+        for stage, mesh_file in r["meshes"].items():
+            V, F = read_mesh(out / mesh_file)
+            st = d["stages"][stage]
+            topo = d["stages"][st["same_faces"]] if "same_faces" in st else st
+            Vv = np.frombuffer(base64.b64decode(st["V"]), dtype="<f4").reshape(-1, 3) + centre
+            assert np.abs(Vv - V).max() <= 1e-6 * d["radius"]
+            Fv = np.frombuffer(base64.b64decode(topo["F"]), dtype="<u4").reshape(-1, topo["k"])
+            assert np.array_equal(Fv, F)
+            q = np.frombuffer(base64.b64decode(d["metrics"]["planarity"]["stages"][stage]["values"]), dtype="<f4")
+            assert np.allclose(q, quad_planarity(V, F), rtol=1e-6, atol=1e-30)
+            c = np.frombuffer(base64.b64decode(d["metrics"]["closeness"]["stages"][stage]["values"]), dtype="<f4")
+            assert np.allclose(c, rp.face_values(V, F, "closeness", refs[r["surface"]]), rtol=1e-5,
+                               atol=1e-6 * d["radius"])
+            for m, spec in d["metrics"].items():  # the legend's "all equal to" is the pictures' verdict
+                img = next((i for i in r["images"] if i.get("stage") == stage and i.get("measure") == m), None)
+                if img is not None:
+                    assert spec["stages"][stage]["constant"] == img["constant"]
+
+
+def test_round_off_fields_are_constant(quick_report):
+    """A translation surface is exactly planar: its planarity (about 1e-16) is drawn in one colour and labelled
+    "all equal to 0 (round-off …)" (picture, caption, 3D legend), never coloured as if it varied; real variation
+    (the subdivision's optimized planarity, every area) keeps its colour bar."""
+    summary, data = quick_report
+    text = summary.html.read_text(encoding="utf-8")
+    for r in data["results"]:
+        for img in r["images"]:
+            if img["kind"] != "mesh":
+                continue
+            if r["strategy"] == "translation" and img["measure"] == "planarity":
+                assert img["constant"].startswith("all equal to 0 (round-off"), img
+                assert img["constant"] in text
+            elif img["measure"] == "area" or (r["strategy"] == "subdivision" and img["measure"] == "planarity"
+                                              and img["stage"] == "optimized"):
+                assert img["constant"] is None, img
+
+
+def test_constant_field_is_relative_to_the_scale():
+    rng = np.random.default_rng(3)
+    noise = rng.uniform(0, 1, 50)
+    for unit in (1e-3, 1.0, 1e3):  # mm / m / km: the same verdict
+        length = 40.0 * unit
+        assert rp.constant_field(1e-15 * length * noise, length).startswith("all equal to 0 (round-off")
+        assert rp.constant_field(1e-6 * length * noise, length) is None
+        area = 16.0 * unit**2
+        assert rp.constant_field(area * (1 + 1e-13 * noise), rp.measure_scale("area", length)) == \
+            f"all equal to {rp._fmt(float(np.median(area * (1 + 1e-13 * noise))), 4)}"
+        assert rp.constant_field(area * (1 + 1e-3 * noise), rp.measure_scale("area", length)) is None
+    assert rp.constant_field(np.full(5, 2.0)) == "all equal to 2"  # exactly equal, no scale needed
+    assert rp.constant_field([]) is None
+
+
+def _captured_figures(monkeypatch):
+    """Record every figure the report closes (it closes each after saving)."""
+    import matplotlib.pyplot as plt
+
+    figs, close = [], plt.close
+
+    def keep(fig=None):
+        figs.append(fig)
+        close(fig)
+
+    monkeypatch.setattr(plt, "close", keep)
+    return figs
+
+
+def _drawn_texts(fig):
+    from matplotlib.text import Text
+
+    fig.canvas.draw()
+    return [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()
+            and (t.axes is None or t.axes.axison)]
+
+
+def test_every_figure_text_is_legible(monkeypatch, tmp_path):
+    """No text of any report figure is below MIN_FONT_PT, i.e. MIN_FONT_PX >= 11 pixels at the pictures' own size
+    (the browser test checks the page shows them at that size)."""
+    assert rp.MIN_FONT_PX >= 11.0
+    figs = _captured_figures(monkeypatch)
+    V, T, _ = sample_mesh("dome", 12)
+    Vt, Qt, _ = translation_candidate(V, T, st.default_panel_size(V, 6))
+    q = quad_planarity(Vt, Qt)
+    box = (Vt.min(axis=0), Vt.max(axis=0))
+    rp.render_mesh(tmp_path / "a.png", Vt, Qt, np.linspace(0, 1e-3, len(Qt)), "t\nx", "planarity (scale-free)", box)
+    rp.render_mesh(tmp_path / "b.png", Vt, Qt, q, "t", "planarity", box, scale=1.0)
+    fields = {"planarity": q, "warping": q * 10, "area": np.linspace(1, 2, len(Qt))}
+    rp.render_histograms(tmp_path / "h.png", fields, {k: v * 2 + 1e-3 for k, v in fields.items()}, "h")
+    rp.render_area_boxes(tmp_path / "x.png", [(f"s{i} · strategy_{i}", np.arange(5.0) + i) for i in range(20)], "x")
+    assert len(figs) == 4
+    for fig in figs:
+        texts = _drawn_texts(fig)
+        assert texts
+        small = [(t.get_text(), t.get_fontsize()) for t in texts if t.get_fontsize() < rp.MIN_FONT_PT]
+        assert not small, small
+
+
+def test_constant_fields_are_drawn_in_one_colour(monkeypatch, tmp_path):
+    figs = _captured_figures(monkeypatch)
+    V, T, _ = sample_mesh("dome", 12)
+    Vt, Qt, _ = translation_candidate(V, T, st.default_panel_size(V, 6))
+    q = quad_planarity(Vt, Qt)
+    assert 0 < q.max() < 1e-12
+    rp.render_mesh(tmp_path / "p.png", Vt, Qt, q, "t", "planarity", (Vt.min(axis=0), Vt.max(axis=0)), scale=1.0)
+    fig = figs[-1]
+    assert len(fig.axes) == 1  # no colour bar
+    colours = np.unique(np.round(fig.axes[0].collections[0].get_facecolor()[:, :3], 6), axis=0)
+    assert len(colours) == 1
+    assert any("all equal to 0 (round-off" in t.get_text() for t in _drawn_texts(fig))
+    # the histogram of a round-off field is a sentence, not one clamped bar
+    fields = {"planarity": q, "warping": q, "area": np.linspace(1, 2, len(Qt))}
+    rp.render_histograms(tmp_path / "h.png", fields, None, "h",
+                         scales={"planarity": 1.0, "warping": 40.0, "area": 1600.0})
+    ax_pl, ax_w, ax_a = figs[-1].axes
+    assert len(ax_pl.patches) == 0 and len(ax_w.patches) == 0 and len(ax_a.patches) > 0
+    assert "all equal to 0" in " ".join(t.get_text() for t in ax_pl.texts)
+
+
+def test_box_plot_labels_do_not_overlap(monkeypatch, tmp_path):
+    figs = _captured_figures(monkeypatch)
+    for n in (3, 16, 40):
+        groups = [(f"surface{i}\ncurvature_network\n(optimized)", np.arange(6.0) * (i + 1)) for i in range(n)]
+        rp.render_area_boxes(tmp_path / f"b{n}.png", groups, "boxes")
+        assert png_size(tmp_path / f"b{n}.png") == rp.area_boxes_size(n)
+        fig = figs[-1]
+        fig.canvas.draw()
+        boxes = sorted((t.get_window_extent() for t in fig.axes[0].get_yticklabels() if t.get_text()),
+                       key=lambda b: b.y0)
+        assert len(boxes) == n
+        assert all(a.y1 <= b.y0 for a, b in zip(boxes, boxes[1:])), "labels overlap"
+        assert min(b.x0 for b in boxes) >= 0 and max(b.y1 for b in boxes) <= fig.bbox.height
+
+
+def test_classic_module_join():
+    """The three.js modules are joined into a classic script; a module of another shape is refused."""
+    out = rp.classic_module("m.js", "import { A, B as C } from 'three';\nclass D extends A {}\nexport { D, C as E };",
+                            {"three": "three.module.js"})
+    assert 'const { A, B: C } = __m["three.module.js"];' in out and "Object.assign(__e, { D: D, E: C });" in out
+    for bad in ("export default 1;", "export const x = 1;", "import 'side-effect';", "import { a } from 'other';"):
+        with pytest.raises(ValueError):
+            rp.classic_module("m.js", bad, {"three": "three.module.js"})
+    bundle = rp.viewer_bundle()
+    assert "window.PQ_THREE" in bundle and "OrbitControls" in bundle
+    assert not re.search(r"^\s*(import|export)\s*\{", bundle, re.M)
+
+
+def test_view_data_keeps_site_coordinates_and_caps_big_meshes(monkeypatch, tmp_path):
+    import base64
+
+    V, T, _ = sample_mesh("wave", 12)
+    Vt, Qt, _ = translation_candidate(V, T, st.default_panel_size(V, 6))
+    shift = np.array([5e6, -3e6, 120.0])
+    W = Vt + shift
+    fields = {m: rp.face_values(W, Qt, m, (V + shift, T)) if m != "warping" else np.zeros(len(Qt))
+              for m in rp.VIEW_MEASURES}
+    d = rp.view_data([("candidate", W, Qt)], {"candidate": fields}, (W.min(axis=0), W.max(axis=0)))
+    back = np.frombuffer(base64.b64decode(d["stages"]["candidate"]["V"]), dtype="<f4").reshape(-1, 3)
+    back = back + np.array(d["centre"])
+    assert np.abs(back - W).max() <= 1e-6 * d["radius"]  # float32 about the centre: no 0.5-unit steps at 5e6
+    assert d["metrics"]["planarity"]["stages"]["candidate"]["constant"].startswith("all equal to 0")
+    monkeypatch.setattr(rp, "VIEW_FACE_CAP", 10)
+    summary = rp.run_report(tmp_path, surfaces=["dome"], strategies=["translation"], quick=True, progress=False)
+    row = json.loads(summary.json.read_text())["results"][0]
+    assert "10-panel limit" in row["view"]["note"] and not list((tmp_path / rp.VIEWER_DIR / "data").glob("*.js"))
+    html_text = summary.html.read_text(encoding="utf-8")
+    assert "10-panel limit" in html_text and "viewer.js" not in html_text
+
+
+def test_static_files_are_package_data():
+    """The wheel carries the 3D view's files: pyproject's package-data globs match every file of ghserver/static."""
+    import fnmatch
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+    root = Path(rp.__file__).resolve().parent
+    cfg = tomllib.loads((root.parent / "pyproject.toml").read_text(encoding="utf-8"))
+    globs = cfg["tool"]["setuptools"]["package-data"]["ghserver"]
+    files = [p.relative_to(root).as_posix() for p in (root / "static").rglob("*") if p.is_file()]
+    assert {"static/viewer.js", "static/three/three.core.js", "static/three/three.module.js",
+            "static/three/OrbitControls.js", "static/three/LICENSE", "static/three/README.md"} <= set(files)
+    for f in files:
+        assert any(fnmatch.fnmatch(f, g) for g in globs), f"{f} is not package data"
 
 
 def test_progress_bar_only_on_a_terminal():
