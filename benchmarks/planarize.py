@@ -14,11 +14,23 @@ libigl's" rows rerun our solver with libigl's final max planarity as the toleran
 displacement at that planarity. Memory is the peak resident size of a child process that runs only our solver on the
 largest mesh.
 
-Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k]``
+Noisy grids (issue #21): the sin-cos grid at 60² and 200² quads with every vertex lifted by a uniform random
+±3 % of the edge in z (seeded; start max planarity ≈ 0.10, worst corner ≈ 86.6°), planarized with the defaults and
+with the input as reference (the stiff-closeness case). Each run is a child process: its peak resident size
+(``resource.getrusage``) and the number of sparse factorizations are printed beside it (best of ``--repeats``
+runs by wall clock). geometrylab (guided projection, Tang et al. 2014) is an optional peer on the same grids,
+loaded from a checkout given by ``--geometrylab PATH`` or the ``GEOMETRYLAB`` environment variable (skipped with a
+note when absent; its code is not part of this project): as shipped (boundary gliding on) and with gliding off,
+one ``optimize()`` iteration at a time until its max planarity is under 1e-4 or ``--peer-budget`` seconds.
+
+Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k] [--noisy-only] [--geometrylab PATH]``
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import json
+import os
 import resource
 import subprocess
 import sys
@@ -42,6 +54,13 @@ def sincos_grid(nq: int):
     L = 0.7 * nq
     V, F = quad_grid(nq, nq, L, L)
     V[:, 2] = 0.3 * np.sin(V[:, 0]) * np.cos(V[:, 1])
+    return V, F
+
+
+def noisy_grid(nq: int, amp: float = 0.03, seed: int = 0):
+    """The sin-cos grid with every vertex lifted by a uniform random ``±amp`` × the edge (0.7) in z."""
+    V, F = sincos_grid(nq)
+    V[:, 2] += amp * 0.7 * np.random.default_rng(seed).uniform(-1.0, 1.0, len(V))
     return V, F
 
 
@@ -141,19 +160,155 @@ def child_100k():
           f"{res.nonconvex_faces} {_shortest_edge_ratio(res.mesh[0], F):.3g}")
 
 
+def child_noisy(nq: int, mode: str):
+    """One run on the noisy grid in this (child) process: a JSON line with the result's numbers and the peak RSS."""
+    from components.planarize import step
+
+    count = [0]
+    factor = step.factor_spd
+
+    def counted(S):
+        count[0] += 1
+        return factor(S)
+
+    step.factor_spd = counted  # counting only: the solver calls the module's function
+    V, F = noisy_grid(nq)
+    kw = {"reference": (V, F)} if mode == "ref" else {}
+    t, c = time.perf_counter(), time.process_time()
+    res = planarize((V, F), **kw)
+    dt, cpu = time.perf_counter() - t, time.process_time() - c
+    h = res.history_max_planarity
+    print(json.dumps(dict(
+        dt=dt, cpu=cpu, t3=_first_below(h, res.history_time, 1e-3), t4=_first_below(h, res.history_time, 1e-4),
+        it4=int(np.nonzero(h <= 1e-4)[0][0]) if (h <= 1e-4).any() else -1, it=res.iterations, facts=count[0],
+        conv=bool(res.converged), healthy=bool(res.healthy), reason=res.stop_reason,
+        closeness=res.mean_closeness, V=res.mesh[0].tolist(),
+        rss=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)))
+
+
+def child_peer(nq: int, path: str, glide: bool, budget: float):
+    """geometrylab's guided projection on the noisy grid in this (child) process: a JSON line like
+    :func:`child_noisy`. Its package ``__init__`` imports its GUI (mayavi): the modules are loaded from ``path``
+    without it; ``pypardiso`` (imported by a fitting module it does not use here) and ``numpy.in1d`` (gone in
+    numpy 2.4) are stood in for when absent, with a note."""
+    import contextlib
+    import io
+    import types
+
+    notes = []
+    if not hasattr(np, "in1d"):
+        np.in1d = np.isin
+        notes.append("numpy.in1d → numpy.isin")
+    if importlib.util.find_spec("pypardiso") is None:
+        import scipy.sparse.linalg as spla
+
+        stub = types.ModuleType("pypardiso")
+        stub.spsolve = spla.spsolve
+        sys.modules["pypardiso"] = stub
+        notes.append("pypardiso absent: scipy spsolve")
+    pkg = types.ModuleType("geometrylab")
+    pkg.__path__ = [path]
+    sys.modules["geometrylab"] = pkg
+    from geometrylab.optimization.gridshell import Gridshell
+    from geometrylab.optimization.guidedprojection import GuidedProjection
+
+    class Peer(GuidedProjection):
+        def set_weights(self):
+            super().set_weights()
+            if not glide:
+                self.set_weight("gliding", 0)
+
+    V, F = noisy_grid(nq)
+    quiet = contextlib.redirect_stdout(io.StringIO())
+    t, c = time.perf_counter(), time.process_time()
+    with quiet:
+        mesh = Gridshell()
+        mesh.make_mesh(V.tolist(), F.tolist())
+        mesh.initialize()
+        opt = Peer()
+        opt.mesh = mesh
+        opt.set_weight("planarity", 1)
+        opt.iterations = 1
+    hist, times, X = [float(face_planarity(V, F).max())], [0.0], V
+    while hist[-1] > 1e-4 and time.perf_counter() - t < budget:
+        with contextlib.redirect_stdout(io.StringIO()):
+            opt.optimize()
+        X = np.asarray(opt.vertices(), dtype=np.float64)
+        hist.append(float(face_planarity(X, F).max()))
+        times.append(time.perf_counter() - t)
+    dt, cpu = time.perf_counter() - t, time.process_time() - c
+    print(json.dumps(dict(
+        dt=dt, cpu=cpu, t3=_first_below(hist, times, 1e-3), t4=_first_below(hist, times, 1e-4),
+        it=len(hist) - 1, conv=hist[-1] <= 1e-4, notes=notes, V=X.tolist(),
+        rss=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)))
+
+
+def _child(args):
+    out = subprocess.run([sys.executable, __file__, *args], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def bench_noisy(args):
+    """The noisy-grid rows: ours (defaults, and the input as reference) and the geometrylab peer."""
+    peer = args.geometrylab or os.environ.get("GEOMETRYLAB", "")
+    if peer and not (Path(peer) / "optimization" / "guidedprojection.py").exists():
+        print(f"|  |  | geometrylab: no optimization/guidedprojection.py under {peer}; peer skipped | | | | | | | | | |")
+        peer = ""
+    elif not peer:
+        print("|  |  | geometrylab: not given (--geometrylab PATH or GEOMETRYLAB=PATH); peer rows skipped "
+              "| | | | | | | | | |")
+    for nq in args.noisy:
+        V, F = noisy_grid(nq)
+        m, mel = len(F), 0.7
+        print(f"| noisy grid ±3 % | {m:,} | input | — | — | — | {face_planarity(V, F).max():.2e} | 0 / 0 | 0 | "
+              f"{np.degrees(corner_angles(V, F).min()):.1f} | {_shortest_edge_ratio(V, F):.3g} | "
+              f"{int(nonconvex_faces(V, F).sum())} |", flush=True)
+        for mode, label in (("defaults", "ours (defaults)"), ("ref", "ours (defaults, reference = input)")):
+            runs = sorted((_child(["--child-noisy", str(nq), mode]) for _ in range(args.repeats)),
+                          key=lambda r: r["dt"])
+            r = runs[0]
+            _row("noisy grid ±3 %", m, label, r["dt"], r["t3"], r["t4"], V, np.asarray(r["V"]), F, mel,
+                 closeness=r["closeness"] / mel if mode == "ref" else float("nan"),
+                 extra=f" {r['it']} it (1e-4 at it {r['it4']}), {r['facts']} factorizations, {r['reason']}, "
+                       f"converged {r['conv']}, healthy {r['healthy']}, CPU {r['cpu']:.3g} s, "
+                       f"peak RSS {r['rss']:,.0f} MB (best of {len(runs)})")
+        if peer:
+            for glide, label in ((True, "geometrylab as shipped (gliding on)"), (False, "geometrylab, gliding off")):
+                r = _child(["--child-peer", str(nq), peer, "1" if glide else "0", str(args.peer_budget)])
+                _row("noisy grid ±3 %", m, label, r["dt"], r["t3"], r["t4"], V, np.asarray(r["V"]), F, mel,
+                     extra=f" {r['it']} it, reached 1e-4 {r['conv']}, CPU {r['cpu']:.3g} s, peak RSS "
+                           f"{r['rss']:,.0f} MB{'; ' + ', '.join(r['notes']) if r['notes'] else ''}")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--full", action="store_true", help="run libigl for 2,000 / 200 iterations (very long)")
     ap.add_argument("--skip-100k", action="store_true")
+    ap.add_argument("--noisy-only", action="store_true", help="only the noisy-grid rows")
+    ap.add_argument("--noisy", type=int, nargs="*", default=[60, 200], help="noisy grid sizes (quads per side)")
+    ap.add_argument("--geometrylab", default="", help="path of a geometrylab checkout (optional peer)")
+    ap.add_argument("--peer-budget", type=float, default=60.0, help="seconds per geometrylab run")
     ap.add_argument("--child-100k", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--child-noisy", nargs=2, help=argparse.SUPPRESS)
+    ap.add_argument("--child-peer", nargs=4, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child_100k:
         child_100k()
         return
+    if args.child_noisy:
+        child_noisy(int(args.child_noisy[0]), args.child_noisy[1])
+        return
+    if args.child_peer:
+        nq, path, glide, budget = args.child_peer
+        child_peer(int(nq), path, glide == "1", float(budget))
+        return
     print("| mesh | quads | method | time s | t→1e-3 | t→1e-4 | final max planarity | mean / max move (edges) |"
           " mean closeness (edges) | worst corner ° | shortest edge / median | non-convex |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    bench_noisy(args)
+    if args.noisy_only:
+        return
     bench_mesh("sin-cos grid", *sincos_grid(50), args, 2000 if args.full else 50)
     bench_mesh("sin-cos grid", *sincos_grid(100), args, 200 if args.full else 10)
     conj = SHARED / "libigl" / "inspired_mesh_quads_Conjugate.off"

@@ -1,0 +1,58 @@
+"""Issue #21 (planarize): a height-field grid with ±3 % of the edge of noise in z is planarized with the defaults
+to the tolerance, healthy, without drifting far (mean move ≤ 0.25 edge), and the same at every scale and placement.
+Keeping its worst corner at 70° or more (from ~87°) is the issue's target, not met yet (strict xfail: it fails the
+day it holds). Timings are in ``benchmarks/planarize.py``."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.core.measures import corner_angles, quad_planarity
+from components.core.mesh import quad_grid
+from components.metrics.health import face_health
+from components.planarize.planarizer import planarize
+
+EDGE = 0.7
+
+
+def noisy_grid(nq=16, amp=0.03, seed=0):
+    """The benchmark's sin-cos grid (quads of 0.7) with every vertex lifted by a uniform random ±amp × the edge."""
+    L = EDGE * nq
+    V, F = quad_grid(nq, nq, L, L)
+    V[:, 2] = 0.3 * np.sin(V[:, 0]) * np.cos(V[:, 1])
+    V[:, 2] += amp * EDGE * np.random.default_rng(seed).uniform(-1.0, 1.0, len(V))
+    return V, F
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_noisy_grid_reaches_the_tolerance_healthy_without_shear(seed):
+    V, F = noisy_grid(seed=seed)
+    assert quad_planarity(V, F).max() > 0.05 and np.degrees(corner_angles(V, F).min()) > 85.0
+    res = planarize((V, F))
+    assert res.converged and res.healthy and res.violations == []
+    assert res.max_planarity <= 1e-4
+    assert quad_planarity(res.mesh[0], F).max() <= 1e-4 * (1 + 1e-9)
+    assert res.worst_corner_angle >= 45.0  # the guard's floor: half the input's worst corner
+    assert res.nonconvex_faces == 0
+    move = np.linalg.norm(res.mesh[0] - V, axis=1) / EDGE
+    assert move.mean() <= 0.25 and move.max() <= 1.0
+    assert face_health(res.mesh[0], F, tolerance=1e-4 * (1 + 1e-9)).healthy
+
+
+@pytest.mark.xfail(strict=True, reason="issue #21 target: the Gauss-Newton restore step shears a noisy grid to 61-65°")
+def test_a_noisy_grid_keeps_its_corners_over_70_degrees():
+    V, F = noisy_grid()
+    res = planarize((V, F))
+    assert res.converged and res.worst_corner_angle >= 70.0
+
+
+def test_a_noisy_grid_gives_the_same_result_at_every_scale_and_placement():
+    V, F = noisy_grid(nq=12)
+    base = planarize((V, F))
+    assert base.converged
+    for scale, offset in ((1e-3, 0.0), (1e3, 0.0), (1.0, 5e6)):
+        res = planarize((V * scale + offset, F))
+        assert res.converged and res.iterations == base.iterations
+        assert res.worst_corner_angle == pytest.approx(base.worst_corner_angle, abs=1e-3)
+        got = (res.mesh[0] - offset) / scale
+        assert np.abs(got - base.mesh[0]).max() <= 1e-6 * EDGE * max(1.0, offset / 1e3)
