@@ -378,7 +378,7 @@ def principal_angle_error(Vq: np.ndarray, Fq: np.ndarray, V: np.ndarray, T: np.n
     -------
     AngleError
         Per-edge angles in degrees (edge projected into the tangent plane), the mask of edges away from umbilics
-        and the two means.
+        and the two means (the second is the first when no edge is away from umbilics).
     """
     fld = net_or_field.field if hasattr(net_or_field, "field") else net_or_field
     E = edge_topology(Fq).E
@@ -393,8 +393,9 @@ def principal_angle_error(Vq: np.ndarray, Fq: np.ndarray, V: np.ndarray, T: np.n
     ang = np.degrees(np.arccos(np.clip(np.maximum(c1, c2), 0.0, 1.0)))
     thr = float(fld.anisotropy[fld.umbilic].max()) if fld.umbilic.any() else 0.0
     away = fld.anisotropy[f] >= max(away_factor * thr, 1e-12)
-    return AngleError(ang, away, float(ang.mean()) if len(ang) else 0.0,
-                      float(ang[away].mean()) if away.any() else float("nan"))
+    mean = float(ang.mean()) if len(ang) else 0.0
+    # no edge away from umbilics (an umbilic or flat surface): the mean over all edges, never NaN
+    return AngleError(ang, away, mean, float(ang[away].mean()) if away.any() else mean)
 
 
 # ----------------------------------------------------------------------------------------------

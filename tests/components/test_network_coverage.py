@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial import Delaunay, cKDTree
 
 from components.core.errors import InputError
-from components.core.mesh import read_mesh, triangulate
+from components.core.mesh import quad_grid, read_mesh, triangulate
 from components.core.proximity import TriangleIndex
 from components.fields.frames import dual_graph, face_frames, to_complex
 from components.metrics.health import DEFECT_BITS, face_health
@@ -236,6 +236,18 @@ def test_a_sphere_cap_falls_back_to_the_fields_candidate():
     # trim keeps the network's own refusal
     with pytest.raises(InputError, match="umbilic"):
         pq_from_curvature_network((V, T), panel_size=h, boundary_cells="trim")
+
+
+def test_an_umbilic_quad_grid_gives_finite_outputs():
+    """A coarse paraboloid of revolution (umbilic at its apex, nearly flat around it): no edge lies away from the
+    umbilic region, so the mean angle error is taken over all edges; every number output is finite (a NaN was a 500
+    through the server)."""
+    V, Q = quad_grid(4, 4, 2.0, 2.0, height=lambda x, y: -0.1 * ((x - 1) ** 2 + (y - 1) ** 2))
+    res = pq_from_curvature_network((V, Q), panel_size=0.5)
+    for name, value in res._asdict().items():
+        if isinstance(value, float):
+            assert np.isfinite(value), name
+    assert 0.0 <= res.mean_angle_error <= 45.0
 
 
 def test_the_same_result_in_other_units_and_places():
