@@ -6,11 +6,9 @@ from __future__ import annotations
 
 import hashlib
 import hmac
-import html
 import ipaddress
 import json
 import logging
-import os
 import socket
 import threading
 import time
@@ -22,52 +20,16 @@ from urllib.parse import urlsplit
 from flask import Blueprint, Flask, Response, current_app, request
 from werkzeug.exceptions import HTTPException, RequestEntityTooLarge
 
-from ghserver import protocol
+from components.core.progress import Cancelled, reporting
+from ghserver import catalogue, jobs, protocol
 from ghserver.registry import Registry
+from ghserver.workers import default_memory_limit_mb
 
 log = logging.getLogger(__name__)
 access_log = logging.getLogger("ghserver.access")
 
 DEFAULT_MAX_BODY_MB = 512
 LOOPBACK_NAMES = ("localhost",)
-
-
-def machine_memory_mb() -> float:
-    """Physical memory of the machine in MB (or of the container's cgroup when that is smaller); 0 if unknown."""
-    total = 0.0
-    try:
-        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**20
-    except (ValueError, OSError, AttributeError):  # Windows
-        try:
-            import ctypes
-
-            class _Status(ctypes.Structure):
-                _fields_ = [("dwLength", ctypes.c_ulong), ("dwMemoryLoad", ctypes.c_ulong),
-                            ("ullTotalPhys", ctypes.c_ulonglong), ("rest", ctypes.c_ulonglong * 6)]
-
-            st = _Status()
-            st.dwLength = ctypes.sizeof(st)
-            if ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(st)):
-                total = st.ullTotalPhys / 2**20
-        except (AttributeError, OSError, ImportError):
-            total = 0.0
-    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
-        try:
-            text = Path(path).read_text().strip()
-        except OSError:
-            continue
-        if text.isdigit() and 0 < int(text) / 2**20 < (total or float("inf")):
-            total = int(text) / 2**20
-    return total
-
-
-def default_memory_limit_mb(workers: int) -> float:
-    """The default memory cap of one solver process: 60% of the machine's memory shared by the workers, at least
-    1 GB (the server process, its queue and cache, and the operating system keep the rest)."""
-    total = machine_memory_mb()
-    if not total:
-        return 4096.0
-    return float(max(1024, int(0.6 * total / max(1, workers))))
 
 
 @dataclass
@@ -98,6 +60,11 @@ class Config:
     host: str = "127.0.0.1"  # the address the server is bound to (requests must name it, or a loopback name)
     allowed_hosts: tuple = field(default_factory=tuple)  # more Host / Origin names to accept ("*": any)
     registry_factory: str = "ghserver.endpoints:build_registry"
+    cluster: str | None = None  # Dask scheduler address (tcp://HOST:PORT): solves run there, not in local processes
+    job_timeout: float = 3600.0  # seconds a job's solve may run (jobs are for solves Hops cannot wait for)
+    job_ttl: float = 600.0  # seconds a finished job is kept
+    max_jobs: int = 64  # jobs kept at once (queued, running, finished); beyond → 429
+    job_results_mb: float = 1024  # finished jobs' results kept together (the oldest are forgotten first)
 
     @property
     def limits(self) -> dict:
@@ -110,7 +77,7 @@ class Config:
     def worker_memory_mb(self) -> float | None:
         """The memory cap of each solver process: the configured one, else derived from the machine's memory."""
         if self.memory_limit_mb is None:
-            return default_memory_limit_mb(self.workers) if self.workers > 0 else None
+            return default_memory_limit_mb(self.workers) if self.workers > 0 and not self.cluster else None
         return self.memory_limit_mb or None
 
     @property
@@ -206,25 +173,7 @@ def _registry() -> Registry:
     return current_app.extensions["ghserver.registry"]
 
 
-def _wants_html() -> bool:
-    best = request.accept_mimetypes.best_match(["application/json", "text/html"])
-    return best == "text/html" and request.accept_mimetypes["text/html"] > request.accept_mimetypes["application/json"]
-
-
-@bp.get("/")
-def catalogue():
-    reg = _registry()
-    if _wants_html():
-        return Response(catalogue_html(reg, has_report=_report_path() is not None), mimetype="text/html")
-    return json_response(reg.catalogue())
-
-
-def _report_path() -> Path | None:
-    folder = current_app.extensions["ghserver.config"].report_dir
-    if not folder:
-        return None
-    path = Path(folder) / "report.html"
-    return path if path.is_file() else None
+# GET / (the catalogue) and GET /doc/<component> are in ghserver.catalogue
 
 
 @bp.get("/report")
@@ -251,8 +200,8 @@ def report(name: str = "report.html"):
         data = target.read_bytes()
     except (OSError, ValueError):  # a name the file system refuses
         return missing
-    mime = {".html": "text/html", ".png": "image/png", ".csv": "text/csv", ".json": "application/json",
-            ".svg": "image/svg+xml", ".obj": "text/plain"}.get(target.suffix.lower(), "application/octet-stream")
+    mime = {".html": "text/html", ".js": "text/javascript", ".png": "image/png", ".csv": "text/csv",
+            ".json": "application/json", ".svg": "image/svg+xml", ".obj": "text/plain"}.get(target.suffix.lower(), "application/octet-stream")
     return Response(data, mimetype=mime)
 
 
@@ -261,10 +210,12 @@ def metadata(uri: str):
     comp = _registry().get(protocol.pointer_uri(uri))
     if comp is None:
         return json_response(not_found_body(uri), 404)
+    if catalogue.wants_html():  # a browser: the component's page (Hops sends no Accept and gets the JSON)
+        return catalogue.component_page(comp)
     return json_response(comp.metadata())
 
 
-def _authorized() -> bool:
+def authorized() -> bool:
     """The API key, when one is set, in the ``RhinoComputeKey`` header or as an ``Authorization: Bearer`` token.
 
     Either matching is enough (compute_rhino3d sends its own ``authToken`` as the Bearer token beside the key);
@@ -374,7 +325,7 @@ def _guard():
 
 def _solve(uri: str | None):
     started = time.perf_counter()
-    if not _authorized():
+    if not authorized():
         return json_response(protocol.error_body(["missing or wrong API key (send the RhinoComputeKey header)"]), 401)
     slots: threading.BoundedSemaphore | None = current_app.extensions["ghserver.slots"]
     if slots is not None and not slots.acquire(blocking=False):
@@ -412,7 +363,7 @@ def _solve_now(uri: str | None, started: float):
     try:
         protocol.check_json_size(raw, cfg.limits)  # here, so an oversized body never reaches a solver process
     except protocol.RequestError as exc:
-        _log_access(uri or "", exc.status, started, len(raw), "")
+        _log_access(uri or "", exc.status, started, len(raw), "", error=exc.errors[0] if exc.errors else "")
         return json_response(protocol.error_body(exc.errors), exc.status)
     cache: ResultCache = current_app.extensions["ghserver.cache"]
     key = cache.key(uri, raw) if cache.size > 0 else None
@@ -421,20 +372,59 @@ def _solve_now(uri: str | None, started: float):
         if hit is not None:
             _log_access(uri or "", 200, started, len(raw), "", cached=True)
             return Response(hit, status=200, mimetype="application/json")
-    pool = current_app.extensions.get("ghserver.pool")
-    if pool is not None:
-        status, text, comp_uri, info = pool.solve(raw, uri)
-    else:
-        status, text, comp_uri, info = protocol.solve_bytes(_registry(), raw, uri, limits=cfg.limits)
-    if status == 200 and key is not None and info.get("cachesolve"):
-        cache.put(key, text, status)
-    _log_access(comp_uri, status, started, len(raw), info.get("inputs", ""))
+    status, text, comp_uri, info = run_solve(current_app, raw, uri, key=key)
+    _log_access(comp_uri, status, started, len(raw), info.get("inputs", ""),
+                error=protocol.first_error(text) if status != 200 else "")
     return Response(text, status=status, mimetype="application/json")
 
 
-def _log_access(uri, status, started, nbytes, inputs, cached=False):
-    access_log.info("solve %s %d %.1fms in=%dB %s%s", uri or "?", status, 1000 * (time.perf_counter() - started),
-                    nbytes, inputs, " (cached)" if cached else "")
+def run_solve(app, raw: bytes, uri: str | None, key: str | None = None, **hooks) -> tuple[int, bytes, str, dict]:
+    """One solve on the app's backend (the Dask cluster, the local solver processes, or this thread), its 200
+    answer cached; never raises. ``hooks`` (``timeout``, ``wait``, ``progress``, ``cancel``, ``started``,
+    ``option``) are those of :meth:`ghserver.workers.WorkerPool.solve`; jobs use them.
+    """
+    cache: ResultCache = app.extensions["ghserver.cache"]
+    if key is None and cache.size > 0:
+        key = cache.key(uri, raw)
+        hit = cache.get(key)
+        if hit is not None:
+            return 200, hit, uri or "", {"cached": True}
+    pool = app.extensions.get("ghserver.pool")
+    if pool is not None:
+        status, text, comp_uri, info = pool.solve(raw, uri, **hooks)
+    else:
+        status, text, comp_uri, info = _solve_here(app, raw, uri, **hooks)
+    if status == 200 and key is not None and info.get("cachesolve"):
+        cache.put(key, text, status)
+    return status, text, comp_uri, info
+
+
+def _solve_here(app, raw: bytes, uri: str | None, progress=None, cancel=None, started=None,
+                **_limits) -> tuple[int, bytes, str, dict]:
+    """A solve in this thread (``workers=0``); a cancelled one stops at the component's next progress report."""
+    limits = app.extensions["ghserver.config"].limits
+    registry = app.extensions["ghserver.registry"]
+    if progress is None and cancel is None:
+        return protocol.solve_bytes(registry, raw, uri, limits=limits)
+
+    def sink(fraction: float, stage: str) -> None:
+        if cancel is not None and cancel():
+            raise Cancelled()
+        if progress is not None:
+            progress(fraction, stage)
+
+    if started is not None:
+        started()
+    try:
+        with reporting(sink):
+            return protocol.solve_bytes(registry, raw, uri, limits=limits)
+    except Cancelled:
+        return jobs.CANCELLED, json.dumps(protocol.error_body(["the solve was cancelled"])).encode(), uri or "", {}
+
+
+def _log_access(uri, status, started, nbytes, inputs, cached=False, error=""):
+    access_log.info("solve %s %d %.1fms in=%dB %s%s%s", uri or "?", status, 1000 * (time.perf_counter() - started),
+                    nbytes, inputs, " (cached)" if cached else "", f" error: {error}" if error else "")
 
 
 @bp.post("/solve")
@@ -492,65 +482,22 @@ def create_app(config: Config | dict | None = None, registry: Registry | None = 
     app.extensions["ghserver.slots"] = (threading.BoundedSemaphore(config.max_pending_solves)
                                         if config.max_pending_solves > 0 else None)
     app.extensions["ghserver.queue"] = ByteBudget(config.queued_bytes)
-    if config.workers > 0:
+    if config.cluster:
+        from ghserver.cluster import ClusterPool  # deferred import: distributed loads in ~1 s, only --cluster needs it
+
+        app.extensions["ghserver.pool"] = ClusterPool(
+            config.cluster, factory=config.registry_factory, timeout=config.solve_timeout,
+            memory_limit_mb=config.memory_limit_mb, limits=config.limits)
+    elif config.workers > 0:
         from ghserver.workers import WorkerPool
 
         app.extensions["ghserver.pool"] = WorkerPool(
             config.workers, factory=config.registry_factory, timeout=config.solve_timeout,
             memory_limit_mb=config.worker_memory_mb, limits=config.limits,
         )
+    jobs.register(app, run_solve, authorized)
     app.register_blueprint(bp)
+    app.register_blueprint(catalogue.bp)
     app.register_error_handler(HTTPException, _handle_http_error)
     app.register_error_handler(Exception, _handle_unexpected)
     return app
-
-
-# ----------------------------------------------------------------------------------------------
-# the catalogue page
-
-
-def catalogue_html(registry: Registry, has_report: bool = False) -> str:
-    e = html.escape
-    rows = []
-    for c in registry:
-        ins = "".join(_param_li(p, True) for p in c.inputs)
-        outs = "".join(_param_li(p, False) for p in c.outputs)
-        rows.append(
-            f'<section id="{e(c.uri)}"><h2><code>/{e(c.uri)}</code></h2><p>{e(c.description)}</p>'
-            f'<div class="io"><div><h3>Inputs</h3><ul>{ins}</ul></div>'
-            f'<div><h3>Outputs</h3><ul>{outs}</ul></div></div></section>'
-        )
-    report = ('<p><a href="/report/">Comparison report</a> of all strategies on the built-in surfaces.</p>'
-              if has_report else
-              '<p>No comparison report yet: run <code>ghserver demo</code> (or <code>ghserver report</code>) in '
-              'the folder the server was started from, and it appears at <a href="/report/">/report/</a>.</p>')
-    toc = "".join(f'<li><a href="#{e(c.uri)}">{e(c.uri)}</a></li>' for c in registry)
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>PQ mesh components</title>
-<style>
-body{{font-family:system-ui,sans-serif;max-width:60rem;margin:2rem auto;padding:0 1rem;color:#222}}
-section{{border-top:1px solid #ddd;padding:.5rem 0}} .io{{display:flex;gap:2rem}} .io>div{{flex:1}}
-code{{background:#f4f4f4;padding:0 .2em}} li{{margin:.2rem 0}} .kind{{color:#666}}
-</style></head><body>
-<h1>Planar-quad meshing components</h1>
-<p>{len(registry)} components. In Grasshopper, place a <b>Hops</b> component and set its path to
-<code>http://127.0.0.1:5000/&lt;component&gt;</code>, e.g. <code>http://127.0.0.1:5000/metrics/planarity</code>.
-<code>GET /&lt;component&gt;</code> returns its metadata as JSON.</p>
-{report}
-<ul>{toc}</ul>
-{''.join(rows)}
-</body></html>"""
-
-
-def _param_li(p, is_input: bool) -> str:
-    e = html.escape
-    extra = ""
-    if is_input:
-        if p.optional and not p.has_default:
-            extra = " (optional)"
-        elif p.has_default and p.default is not None:
-            extra = f" = {e(json.dumps(p.default) if not isinstance(p.default, str) else repr(p.default))}"
-        elif p.optional:
-            extra = " (optional)"
-    return (f'<li><b>{e(p.name)}</b> <span class="kind">{e(p.kind)} {e(p.access)}</span>{extra}: '
-            f'{e(p.description)}</li>')

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import socket
 import sys
+import threading
 
 from ghserver import report  # importing it does not load matplotlib
 
@@ -101,8 +103,10 @@ def config_from_args(args):
         workers=workers, solve_timeout=args.solve_timeout, memory_limit_mb=args.memory_limit_mb,
         max_vertices=args.max_vertices, max_faces=args.max_faces, max_request_vertices=args.max_request_vertices,
         max_request_faces=args.max_request_faces, max_json_mb=args.max_json_mb, max_response_mb=args.max_response_mb,
-        max_queued_mb=args.max_queued_mb, max_pending_solves=max(1, args.threads - 4) if workers else 0,
+        max_queued_mb=args.max_queued_mb,
+        max_pending_solves=max(1, args.threads - 4) if workers or args.cluster else 0,
         api_key=api_key, host=args.host, allowed_hosts=hosts, registry_factory=args.components,
+        cluster=args.cluster or None, job_timeout=args.job_timeout, job_ttl=args.job_ttl, max_jobs=args.max_jobs,
     )
 
 
@@ -110,7 +114,16 @@ def _serve(args) -> int:
     from ghserver.app import create_app
 
     cfg = config_from_args(args)
-    app = create_app(cfg)
+    refusals: tuple = ()
+    if cfg.cluster:
+        from ghserver.cluster import ClusterError  # deferred import: loads distributed (~1 s), only --cluster needs it
+
+        refusals = (ClusterError,)
+    try:
+        app = create_app(cfg)
+    except refusals as exc:
+        print(f"ghserver serve: {exc}", file=sys.stderr)
+        return 2
     n = len(app.extensions["ghserver.registry"])
     try:
         extra = {"connection_limit": args.connection_limit} if args.connection_limit else {}
@@ -123,20 +136,54 @@ def _serve(args) -> int:
     cap = cfg.worker_memory_mb
     log.info("serving %d components on http://%s:%d/ (threads=%d, solver processes=%d, time limit %g s, "
              "memory cap %s per process, cache=%d/%g MB, body limit %g MB, connections %d%s)", n, args.host,
-             args.port, args.threads, cfg.workers, cfg.solve_timeout, f"{cap:.0f} MB" if cap else "none",
+             args.port, args.threads, cfg.workers if not cfg.cluster else 0, cfg.solve_timeout,
+             f"{cap:.0f} MB" if cap else "none",
              args.cache_size, args.cache_mb, args.max_body_mb, server.adj.connection_limit,
              ", API key required" if cfg.api_key else "")
+    if cfg.cluster:
+        log.info("solves run on the Dask cluster %s (%d workers now)", cfg.cluster,
+                 app.extensions["ghserver.pool"].workers())
     log.info("in Grasshopper: Hops path http://%s:%d/<component>, e.g. http://%s:%d/metrics/planarity",
              args.host, args.port, args.host, args.port)
+    stop_on_sigterm()
     try:
         server.run()
     except KeyboardInterrupt:
-        log.info("stopped")
+        pass  # logged by the signal handler
     finally:
         pool = app.extensions.get("ghserver.pool")
         if pool is not None:
             pool.close()
+        log.info("stopped")
     return 0
+
+
+def stop_on_sigterm() -> None:
+    """Ctrl+C and SIGTERM (``kill``, service managers, containers) stop the server the same way: logged, the solver
+    processes closed, "stopped" logged last."""
+    def handler(signum, frame):  # waitress swallows the KeyboardInterrupt, so the reason is logged here
+        name = "Ctrl+C" if signum == signal.SIGINT else signal.Signals(signum).name
+        log.info("stopping (%s): closing the solver processes", name)
+        raise KeyboardInterrupt(name)
+
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, getattr(signal, "SIGTERM", None)):
+            if sig is not None:
+                signal.signal(sig, handler)
+
+
+class LineSafeHandler(logging.StreamHandler):
+    """A log handler that clears the terminal line first, so a record never lands inside a progress bar drawn with
+    ``\\r`` (the bar redraws itself on its next step)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        isatty = getattr(self.stream, "isatty", None)
+        if isatty is not None and isatty():
+            try:
+                self.stream.write("\r\x1b[K")
+            except (OSError, ValueError):
+                pass
+        super().emit(record)
 
 
 def _list(args) -> int:
@@ -151,14 +198,19 @@ def _list(args) -> int:
             outs = ", ".join(f"`{p.name}`" for p in c.outputs)
             print(f"| `{c.uri}` | {ins} | {outs} | {c.description.replace('|', '&#124;')} |")
         return 0
+    from ghserver.registry import input_summary
+
     for c in reg:
-        ins = ", ".join(f"{p.name}:{p.kind}{'[]' if p.access == 'list' else ''}{'?' if p.optional else ''}"
-                        + (f"={p.default!r}" if p.has_default and not p.optional else "")
-                        for p in c.inputs)
-        outs = ", ".join(p.name for p in c.outputs)
         print(f"/{c.uri:32s} {c.description}")
-        if args.verbose:
-            print(f"    python: {c.function.__module__}.{c.function.__name__}\n    in:  {ins}\n    out: {outs}")
+        if not args.verbose:
+            continue
+        # one line per input: kind, access, default (or required/optional), range, choices, description
+        width = max(len(p.name) for p in c.inputs + c.outputs)
+        print(f"    python: {c.function.__module__}.{c.function.__name__}")
+        for head, params in (("in: ", c.inputs), ("out:", c.outputs)):
+            for i, p in enumerate(params):
+                extra = f", {input_summary(p)}" if params is c.inputs else ""
+                print(f"    {head if i == 0 else '    '} {p.name:{width}s}  {p.kind} {p.access}{extra}: {p.description}")
     return 0
 
 
@@ -263,6 +315,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="function returning the component Registry to serve (default: the published components)")
     s.add_argument("--reuse-port", action="store_true",
                    help="share the port with other ghserver processes (scale-out on one address; not on Windows)")
+    s.add_argument("--cluster", default=None, metavar="tcp://HOST:PORT",
+                   help="run every solve on this Dask scheduler's workers instead of local processes (each worker "
+                        "machine needs this project installed; metadata is answered here)")
+    s.add_argument("--job-timeout", type=float, default=3600.0,
+                   help="seconds a job (POST /jobs/<component>) may run (default 3600)")
+    s.add_argument("--job-ttl", type=float, default=600.0,
+                   help="seconds a finished job's result is kept (default 600)")
+    s.add_argument("--max-jobs", type=int, default=64,
+                   help="jobs kept at once, queued, running or finished (default 64; beyond: 429)")
     s.set_defaults(func=_serve)
     r = sub.add_parser("report", help="run every strategy on the built-in surfaces (and mesh files): HTML report")
     report.add_report_arguments(r)
@@ -292,7 +353,8 @@ def build_parser() -> argparse.ArgumentParser:
     fb.add_argument("--kink-limit", type=float, default=10.0, help="joints kinking more are counted (degrees)")
     fb.set_defaults(func=_fabricate)
     ls = sub.add_parser("list", help="print the component catalogue")
-    ls.add_argument("-v", "--verbose", action="store_true", help="also list inputs and outputs")
+    ls.add_argument("-v", "--verbose", action="store_true",
+                    help="also list inputs (kind, access, default, range, choices) and outputs")
     ls.add_argument("--markdown", action="store_true", help="a Markdown table (the one in README.md)")
     ls.set_defaults(func=_list)
     return parser
@@ -302,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=getattr(logging, str(args.log_level).upper(), logging.INFO),
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s", handlers=[LineSafeHandler()])
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

@@ -11,10 +11,18 @@ way)::
 Inputs are encoded by the kind the server's metadata declares; outputs come back as numpy arrays, floats,
 ``(V, F)`` tuples, … in a NamedTuple named after the component. An output spread over several branches comes
 back as a dict ``{path tuple: value}``. Errors raise :class:`ClientError` with the server's message.
+
+Long solves run as jobs (``POST /jobs/<component>``)::
+
+    job = c.submit("fields/pq_from_conjugate_field", mesh=(V, T), target_length=2.0)
+    c.status(job)["progress"]          # 0..1, with the stage in c.status(job)["stage"]
+    res = c.result(job)                # waits; the same NamedTuple as c.call(...)
+    c.cancel(job)                      # stops it (or forgets a finished one)
 """
 from __future__ import annotations
 
 import json
+import time
 import urllib.error
 import urllib.request
 from collections import namedtuple
@@ -119,10 +127,11 @@ class Client:
         self.headers = {"RhinoComputeKey": api_key} if api_key else {}
         self._meta: dict[str, dict] = {}
 
-    def _request(self, url: str, data: bytes | None = None, headers: dict | None = None) -> tuple[int, bytes]:
+    def _request(self, url: str, data: bytes | None = None, headers: dict | None = None,
+                 method: str | None = None) -> tuple[int, bytes]:
         """One HTTP exchange (standard library only): ``(status, body)``; unreachable servers raise ClientError."""
         req = urllib.request.Request(url, data=data, headers={**self.headers, **(headers or {})},
-                                     method="POST" if data is not None else "GET")
+                                     method=method or ("POST" if data is not None else "GET"))
         try:
             with urllib.request.urlopen(req, timeout=self.timeout) as r:
                 return r.status, r.read()
@@ -197,12 +206,63 @@ class Client:
         Tolerances can be passed as ``_absolute_tolerance``, ``_angle_tolerance_degrees`` and ``_model_units``.
         Warnings from the server are in the result's ``warnings`` field.
         """
-        opts = {k[1:]: inputs.pop(k) for k in list(inputs) if k.startswith("_")}
         uri = uri.strip("/")
+        status, raw = self._post(uri, uri, inputs)
+        return self._result(uri, status, self._json(status, raw))
+
+    def _post(self, path: str, uri: str, inputs: dict) -> tuple[int, bytes]:
+        opts = {k[1:]: inputs.pop(k) for k in list(inputs) if k.startswith("_")}
         body = self.request_body(uri, inputs, **opts)
-        status, raw = self._request(f"{self.url}/{uri}", data=json.dumps(body, ensure_ascii=False).encode("utf-8"),
-                                    headers={"Content-Type": "application/json; charset=utf-8"})
+        return self._request(f"{self.url}/{path}", data=json.dumps(body, ensure_ascii=False).encode("utf-8"),
+                             headers={"Content-Type": "application/json; charset=utf-8"})
+
+    def submit(self, uri: str, /, **inputs) -> str:
+        """Start component ``uri`` as a job (inputs as for :meth:`call`); returns the job id at once."""
+        uri = uri.strip("/")
+        status, raw = self._post(f"jobs/{uri}", uri, inputs)
         resp = self._json(status, raw)
+        if status != 202:
+            errors = resp.get("errors") or [f"HTTP {status}"]
+            raise ClientError(f"{uri}: " + "; ".join(errors), status, errors)
+        return resp["id"]
+
+    def status(self, job: str) -> dict:
+        """A job's state (``queued``, ``running``, ``done``, ``failed``, ``cancelled``), ``progress`` 0..1 and
+        ``stage``; a finished job's ``result`` is the raw ``/solve`` answer (see :meth:`result`)."""
+        status, raw = self._request(f"{self.url}/jobs/{job}", headers={"Accept": "application/json"})
+        resp = self._json(status, raw)
+        if status != 200:
+            errors = resp.get("errors") or [f"HTTP {status}"]
+            raise ClientError("; ".join(errors), status, errors)
+        return resp
+
+    def result(self, job: str, timeout: float | None = None, poll: float = 0.5):
+        """Wait for a job (at most ``timeout`` seconds, default: for ever) and return its outputs as :meth:`call`
+        does; a failed or cancelled job raises :class:`ClientError`."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            st = self.status(job)
+            if st["state"] == "cancelled":
+                raise ClientError(f"job {job} was cancelled", 499, ["cancelled"])
+            if st["state"] in ("done", "failed"):
+                return self._result(st.get("component") or "", int(st.get("status") or 500), st.get("result") or {})
+            if deadline is not None and time.monotonic() > deadline:
+                raise ClientError(f"job {job} is still {st['state']} after {timeout:g} s "
+                                  f"({100 * st.get('progress', 0):.0f}%)", None, ["timeout"])
+            time.sleep(poll)
+
+    def cancel(self, job: str) -> dict:
+        """Cancel a queued or running job (its solver process is stopped), or forget a finished one."""
+        status, raw = self._request(f"{self.url}/jobs/{job}", headers={"Accept": "application/json"},
+                                    method="DELETE")
+        resp = self._json(status, raw)
+        if status != 200:
+            errors = resp.get("errors") or [f"HTTP {status}"]
+            raise ClientError("; ".join(errors), status, errors)
+        return resp
+
+    def _result(self, uri: str, status: int, resp: dict):
+        """The NamedTuple of a ``/solve`` answer, or :class:`ClientError` with its errors."""
         errors = resp.get("errors") or []
         if status != 200 or errors:
             raise ClientError(f"{uri}: " + "; ".join(errors or [f"HTTP {status}"]), status, errors)

@@ -492,7 +492,7 @@ def solve_bytes(registry: Registry, raw: bytes, uri: str | None = None,
 
 
 def describe_inputs(body: Any) -> str:
-    """Short summary of a request's input sizes for the access log: ``name=items/bytes``."""
+    """Short summary of a request's inputs for the access log: ``mesh=1/4kB reference=empty`` (items/bytes)."""
     if not isinstance(body, dict) or not isinstance(body.get("values"), list):
         return ""
     parts = []
@@ -505,8 +505,18 @@ def describe_inputs(body: Any) -> str:
         n = sum(len(v) for v in inner.values() if isinstance(v, list))
         size = sum(len(str(it.get("data", ""))) for v in inner.values() if isinstance(v, list)
                    for it in v if isinstance(it, dict))
-        parts.append(f"{tree.get('ParamName')}={n}/{_human(size)}")
+        name = tree.get("ParamName")
+        parts.append(f"{name}=empty" if n == 0 else f"{name}={n}/{_human(size)}")
     return " ".join(parts)
+
+
+def first_error(response: bytes | str | None) -> str:
+    """The first error line of a JSON answer (for the access log of a refused solve), or ``''``."""
+    try:
+        errors = json.loads(response or b"{}").get("errors") or []
+        return str(errors[0]).splitlines()[0][:200] if errors else ""
+    except (ValueError, AttributeError, TypeError):
+        return ""
 
 
 def _human(n: int) -> str:

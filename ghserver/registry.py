@@ -2,7 +2,9 @@
 
 Everything Hops needs to know about a component is derived from the function itself:
 
-* the **name** is the function's name, the **description** the first line of its docstring;
+* the **name** is the function's name (for a published component also its URI's last part), the **description**
+  the first paragraph of its docstring as plain text (inline markup such as ````x```` or ``:func:`a.b``` dropped:
+  Hops shows it verbatim in tooltips; :func:`plain_text`); the raw text is kept for the HTML pages;
 * the **inputs** are its parameters in signature order, their kinds from the annotations (see
   :mod:`components.core.types`), their defaults from the signature (falsy ones included), their descriptions from the
   docstring's Parameters section; ``X | None = None`` is an optional input;
@@ -14,6 +16,7 @@ declaration is made, i.e. at import of :mod:`ghserver.endpoints`.
 from __future__ import annotations
 
 import inspect
+import json
 import re
 import types
 import typing
@@ -48,6 +51,8 @@ class Param:
     default: Any = None
     minimum: float | None = None
     maximum: float | None = None
+    doc: str = ""  # the docstring's whole description of the param, with its markup (for the HTML pages)
+    choices: tuple = ()  # the values a Text input accepts, when its docstring lists them as ``"a"`` or ``"b"``
 
     def input_schema(self) -> dict:
         """The InputParamSchema Hops reads (hops-protocol.md §1.2)."""
@@ -84,6 +89,34 @@ class Param:
         }
 
 
+def value_text(value) -> str:
+    """A default value as JSON text (``0.001``, ``"diagonal"``, ``false``, ``[0.0, 1.0]``)."""
+    return json.dumps(_default_json(value), ensure_ascii=False)
+
+
+def range_text(p: Param) -> str:
+    """``[lo, hi]`` of a Number/Integer input (``−∞``/``∞`` for an open end), ``""`` when it has none."""
+    if p.minimum is None and p.maximum is None:
+        return ""
+    lo = "−∞" if p.minimum is None else f"{p.minimum:g}"
+    hi = "∞" if p.maximum is None else f"{p.maximum:g}"
+    return f"[{lo}, {hi}]"
+
+
+def input_summary(p: Param) -> str:
+    """Default, range and choices of an input as plain text: ``= 0.001, range [0, ∞]``, ``= "free", one of
+    "free", "fixed"``, ``required`` (a solve needs it) or ``optional``."""
+    if p.has_default and p.default is not None:
+        parts = [f"= {value_text(p.default)}"]
+    else:
+        parts = ["optional" if p.optional else "required"]
+    if range_text(p):
+        parts.append(f"range {range_text(p)}")
+    if p.choices:
+        parts.append("one of " + ", ".join(value_text(c) for c in p.choices))
+    return ", ".join(parts)
+
+
 def _default_json(value):
     if isinstance(value, (bool, int, float, str)):
         return value
@@ -108,6 +141,8 @@ class Component:
     category: str = "PQ"
     subcategory: str = ""
     fingerprint: str = field(default="", repr=False)
+    doc: str = field(default="", repr=False)  # summary paragraph with its markup (for the HTML pages)
+    notes: str = field(default="", repr=False)  # the docstring's Notes section with its markup
 
     def metadata(self) -> dict:
         """The JSON answered to ``GET /<uri>`` (IoResponseSchema plus ghhops-style extras)."""
@@ -146,6 +181,11 @@ def _sections(doc: str) -> dict[str, str]:
 
 def _entries(section: str) -> list[tuple[str, str, str]]:
     """``name : type`` entries of a Parameters/Returns section with their first description sentence."""
+    return [(name, typ, first_sentence(desc)) for name, typ, desc in _full_entries(section)]
+
+
+def _full_entries(section: str) -> list[tuple[str, str, str]]:
+    """``name : type`` entries of a Parameters/Returns section with their whole description (markup kept)."""
     entries = []
     lines = section.splitlines()
     i = 0
@@ -159,15 +199,87 @@ def _entries(section: str) -> list[tuple[str, str, str]]:
                 desc_lines.append(lines[i].strip())
                 i += 1
             desc = " ".join(x for x in desc_lines if x)
-            entries.append((name.strip(), typ.strip(), _first_sentence(desc)))
+            entries.append((name.strip(), typ.strip(), desc))
         else:
             i += 1
     return entries
 
 
-def _first_sentence(text: str) -> str:
-    m = re.match(r"(.+?[.!?])(\s|$)", text)
-    return (m.group(1) if m else text).strip()
+_ABBREVIATIONS = ("e.g.", "i.e.", "cf.", "vs.", "etc.", "al.", "approx.", "resp.", "Fig.", "Eq.", "No.")
+
+
+def first_sentence(text: str) -> str:
+    """The text up to the first full stop that ends a sentence: not one of an abbreviation (``e.g.``), nor one
+    inside parentheses or an inline literal (````x.y````)."""
+    for m in re.finditer(r"[.!?](?=\s|$)", text):
+        head = text[:m.end()]
+        if head.endswith(_ABBREVIATIONS) or head.count("``") % 2 or head.count("(") > head.count(")"):
+            continue
+        return head.strip()
+    return text.strip()
+
+
+# ----------------------------------------------------------------------------------------------
+# inline docstring markup (reStructuredText subset): ``literal``, :role:`target`, *emphasis*, **strong**
+
+_INLINE = re.compile(
+    r"``(?P<code>.+?)``"
+    r"|:(?P<role>[a-z]+(?::[a-z]+)?):`(?P<target>[^`]+)`"
+    r"|\*\*(?P<strong>[^*\s](?:[^*]*[^*\s])?)\*\*"
+    r"|(?<![\w*])\*(?P<emph>[^*\s](?:[^*]*[^*\s])?)\*(?![\w*])"
+    r"|(?<![\w`])`(?P<interp>[^`\s](?:[^`]*[^`\s])?)`(?![\w`])"
+)
+
+
+def _role_text(role: str, target: str) -> str:
+    """What a cross reference shows: ``Title <target>`` → the title, ``~a.b.c`` / ``a.b.c`` → ``c`` (a module
+    keeps its full dotted name), a maths role its formula."""
+    target = target.strip()
+    m = re.fullmatch(r"(.+?)\s*<[^<>]+>", target)
+    if m:
+        return m.group(1).strip()
+    target = target.lstrip("~!")
+    if role in ("mod", "py:mod", "math", "file", "envvar", "option", "command", "samp"):
+        return target
+    return target.rstrip("()").rsplit(".", 1)[-1] + ("()" if target.endswith("()") else "")
+
+
+def inline_markup(text: str) -> list[tuple[str, str]]:
+    """Split docstring text into ``(kind, text)`` runs: ``"text"``, ``"code"`` (````x````, `` `x` ``, a
+    ``:func:`` or other role), ``"emph"`` (``*x*``) and ``"strong"`` (``**x**``).
+
+    >>> inline_markup("The mesh ``(V, F)``, see :func:`components.metrics.health.face_health`, *not* this.")
+    [('text', 'The mesh '), ('code', '(V, F)'), ('text', ', see '), ('code', 'face_health'), ('text', ', '), ('emph', 'not'), ('text', ' this.')]
+    """
+    runs: list[tuple[str, str]] = []
+    pos = 0
+    for m in _INLINE.finditer(text):
+        if m.start() > pos:
+            runs.append(("text", text[pos:m.start()]))
+        if m.group("code") is not None:
+            runs.append(("code", m.group("code")))
+        elif m.group("role") is not None:
+            runs.append(("code", _role_text(m.group("role"), m.group("target"))))
+        elif m.group("strong") is not None:
+            runs.append(("strong", m.group("strong")))
+        elif m.group("emph") is not None:
+            runs.append(("emph", m.group("emph")))
+        else:
+            runs.append(("code", m.group("interp")))
+        pos = m.end()
+    if pos < len(text):
+        runs.append(("text", text[pos:]))
+    return runs
+
+
+def plain_text(text: str) -> str:
+    """Docstring text as plain text, the way Hops shows it (tooltips): inline markup dropped, whitespace
+    collapsed.
+
+    >>> plain_text('The mesh ``(V, F)``; ``"face"`` or *exact* (see :func:`~a.b.conical_check`).')
+    'The mesh (V, F); "face" or exact (see conical_check).'
+    """
+    return " ".join("".join(t for _, t in inline_markup(text)).split())
 
 
 # ----------------------------------------------------------------------------------------------
@@ -240,7 +352,7 @@ def declare(
         raise RegistrationError(f"{fname}: invalid uri {uri!r} (lowercase words separated by '/')")
     doc = function.__doc__ or ""
     summary = inspect.cleandoc(doc).split("\n\n")[0].replace("\n", " ").strip()
-    if not summary:
+    if not plain_text(summary):
         raise RegistrationError(f"{fname}: missing docstring summary line")
     sections = _sections(doc)
     try:
@@ -251,7 +363,7 @@ def declare(
 
     context = tuple(n for n in sig.parameters if n in ct.CONTEXT_PARAMETERS)
     sig_inputs = [p for n, p in sig.parameters.items() if n not in ct.CONTEXT_PARAMETERS]
-    doc_params = [e for e in _entries(sections.get("Parameters", "")) if e[0] not in ct.CONTEXT_PARAMETERS]
+    doc_params = [e for e in _full_entries(sections.get("Parameters", "")) if e[0] not in ct.CONTEXT_PARAMETERS]
     if [p.name for p in sig_inputs] != [e[0] for e in doc_params]:
         raise RegistrationError(
             f"{fname}: docstring Parameters {[e[0] for e in doc_params]} do not match the signature "
@@ -272,9 +384,10 @@ def declare(
         lo, hi = ranges.pop(p.name, (None, None))
         inputs.append(
             Param(
-                name=p.name, kind=kind, access=access, description=desc, nickname=nicknames.get(p.name, ""),
-                optional=optional or (has_default and p.default is None), has_default=has_default,
-                default=p.default if has_default else None, minimum=lo, maximum=hi,
+                name=p.name, kind=kind, access=access, description=plain_text(first_sentence(desc)),
+                nickname=nicknames.get(p.name, ""), optional=optional or (has_default and p.default is None),
+                has_default=has_default, default=p.default if has_default else None, minimum=lo, maximum=hi,
+                doc=desc, choices=_choices(kind, access, desc, p.default if has_default else None),
             )
         )
     if ranges:
@@ -286,7 +399,7 @@ def declare(
     fields = list(result_type._fields)
     warnings_field = "warnings" in fields
     out_fields = [f for f in fields if f != "warnings"]
-    doc_returns = [e for e in _entries(sections.get("Returns", "")) if e[0] != "warnings"]
+    doc_returns = [e for e in _full_entries(sections.get("Returns", "")) if e[0] != "warnings"]
     if out_fields != [e[0] for e in doc_returns]:
         raise RegistrationError(
             f"{fname}: docstring Returns {[e[0] for e in doc_returns]} do not match the NamedTuple fields {out_fields}"
@@ -297,18 +410,35 @@ def declare(
         kind, access, _ = _kind_of(field_hints[fname_], f"{fname} -> {fname_}")
         if kind not in OUTPUT_KINDS:
             raise RegistrationError(f"{fname}: output {fname_!r} of kind {kind} cannot be returned to Grasshopper")
-        outputs.append(Param(name=fname_, kind=kind, access=access, description=desc,
-                             nickname=nicknames.get(fname_, "")))
+        outputs.append(Param(name=fname_, kind=kind, access=access, description=plain_text(first_sentence(desc)),
+                             nickname=nicknames.get(fname_, ""), doc=desc))
     names = [p.name for p in inputs] + [p.name for p in outputs]
     unknown_nick = set(nicknames) - set(names)
     if unknown_nick:
         raise RegistrationError(f"{fname}: nicknames given for unknown params {sorted(unknown_nick)}")
+    notes = inspect.cleandoc(sections.get("Notes", ""))
     comp = Component(
-        uri=uri, function=function, name=function.__name__, description=summary, inputs=inputs, outputs=outputs,
-        context=context, warnings_field=warnings_field, subcategory=subcategory or uri.split("/")[0],
+        uri=uri, function=function, name=function.__name__, description=plain_text(summary), inputs=inputs,
+        outputs=outputs, context=context, warnings_field=warnings_field, subcategory=subcategory or uri.split("/")[0],
+        doc=summary, notes=notes,
     )
     comp.fingerprint = repr([(p.name, p.kind, p.access) for p in inputs + outputs])
     return comp
+
+
+_LITERAL = re.compile(r'``"([^"`]*)"``')
+
+
+def _choices(kind: str, access: str, doc: str, default) -> tuple:
+    """The values a Text input accepts, read from its description: the quoted literals (````"a"````, ````"b"````)
+    when they all look like words and the default is one of them; ``()`` when they do not (a pattern such as
+    ````"verdict_<metric>"````) or the input is not a Text item."""
+    if kind != "Text" or access != "item":
+        return ()
+    found = tuple(dict.fromkeys(_LITERAL.findall(doc)))
+    if len(found) < 2 or default not in found or not all(re.fullmatch(r"[A-Za-z0-9_.+-]+", v) for v in found):
+        return ()
+    return found
 
 
 def _check_default(fname, name, kind, access, default):

@@ -1,12 +1,15 @@
 """Process isolation for solves: a pool of worker processes with a time limit and a memory cap per solve.
 
 A solve that crashes its process, leaks, or runs past its time limit is killed and answered with a JSON error
-while the server and the other solves carry on. Requests and answers cross the process boundary as JSON bytes
+while the server and the other solves carry on. A solve may also be cancelled (its process is killed and replaced)
+and may report progress: the components' :func:`components.core.progress.report` calls in the worker process
+travel up its pipe as small JSON messages. Requests and answers cross the process boundary as JSON bytes
 (never pickled request data). Each worker builds its own registry from an importable factory
 (``"module:function"``), so any component set — the published one or a test one — can run isolated.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import logging
@@ -16,11 +19,17 @@ import queue
 import sys
 import threading
 import time
+from pathlib import Path
+
+from components.core import progress
 
 log = logging.getLogger(__name__)
 
 DEFAULT_FACTORY = "ghserver.endpoints:build_registry"
 STARTUP_TIMEOUT = 120.0  # seconds a new worker may take to import numpy/scipy and build its registry
+CANCELLED = 499  # the status of a cancelled solve (never sent to a client: a job says "cancelled")
+PROGRESS_INTERVAL = 0.1  # seconds between two progress messages of a worker (at most)
+CANCEL_POLL = 0.05  # seconds between two looks at a solve's cancel flag
 
 
 def load_factory(spec: str):
@@ -63,6 +72,44 @@ def reset_peak_rss(pid: int | str = "self") -> bool:
         return False
 
 
+def machine_memory_mb() -> float:
+    """Physical memory of the machine in MB (or of the container's cgroup when that is smaller); 0 if unknown."""
+    total = 0.0
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**20
+    except (ValueError, OSError, AttributeError):  # Windows
+        try:
+            import ctypes
+
+            class _Status(ctypes.Structure):
+                _fields_ = [("dwLength", ctypes.c_ulong), ("dwMemoryLoad", ctypes.c_ulong),
+                            ("ullTotalPhys", ctypes.c_ulonglong), ("rest", ctypes.c_ulonglong * 6)]
+
+            st = _Status()
+            st.dwLength = ctypes.sizeof(st)
+            if ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(st)):
+                total = st.ullTotalPhys / 2**20
+        except (AttributeError, OSError, ImportError):
+            total = 0.0
+    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            text = Path(path).read_text().strip()
+        except OSError:
+            continue
+        if text.isdigit() and 0 < int(text) / 2**20 < (total or float("inf")):
+            total = int(text) / 2**20
+    return total
+
+
+def default_memory_limit_mb(workers: int) -> float:
+    """The default memory cap of one solver process: 60% of the machine's memory shared by the workers, at least
+    1 GB (the server process, its queue and cache, and the operating system keep the rest)."""
+    total = machine_memory_mb()
+    if not total:
+        return 4096.0
+    return float(max(1024, int(0.6 * total / max(1, workers))))
+
+
 def _limit_memory(mb: float | None) -> None:
     if not mb or sys.platform == "win32":
         return
@@ -93,7 +140,9 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
             return
         reset_peak_rss()
         try:
-            status, text, uri, info = protocol.solve_bytes(registry, raw, header.get("uri"), limits=limits)
+            sink = _progress_sender(conn) if header.get("progress") else None
+            with progress.reporting(sink) if sink else contextlib.nullcontext():
+                status, text, uri, info = protocol.solve_bytes(registry, raw, header.get("uri"), limits=limits)
         except Exception as exc:  # solve_bytes never raises; a worker must outlive anything that still does
             log.exception("solve failed in a worker")
             status, uri, info = 500, header.get("uri") or "", {}
@@ -102,6 +151,22 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
         conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb(), "peak_mb": peak_rss_mb(),
                                     **info}).encode())
         conn.send_bytes(text)
+
+
+def _progress_sender(conn):
+    """A progress sink that sends ``{"progress": fraction, "stage": name}`` up the pipe, at most every
+    ``PROGRESS_INTERVAL`` seconds (and always when the stage name's first part changes)."""
+    last = {"t": 0.0, "stage": None}
+
+    def send(fraction: float, stage: str) -> None:
+        now = time.monotonic()
+        head = stage.split(":", 1)[0]
+        if now - last["t"] < PROGRESS_INTERVAL and head == last["stage"]:
+            return
+        last["t"], last["stage"] = now, head
+        conn.send_bytes(json.dumps({"progress": round(float(fraction), 4), "stage": stage[:200]}).encode())
+
+    return send
 
 
 class _Worker:
@@ -170,8 +235,13 @@ class WorkerPool:
         if start_method == "forkserver":
             # workers fork from a server that has already imported the heavy modules: a crashed or recycled
             # worker is replaced in milliseconds instead of re-importing numpy/scipy/rhino3dm
+            # A parent started as `python -m package.module` (e.g. `dask worker`) has each new process run that
+            # module again (multiprocessing's main-module fix-up): preloaded, its imports cost nothing there
+            # (measured in a dask worker: 1.8 s → 0.05 s per replaced worker).
+            spec = getattr(sys.modules.get("__main__"), "__spec__", None)
+            main = [spec.name] if spec is not None and spec.name and not spec.name.endswith("__main__") else []
             self.ctx.set_forkserver_preload(["numpy", "scipy.sparse", "rhino3dm", "ghserver.protocol",
-                                             factory.partition(":")[0]])
+                                             "ghserver.workers", factory.partition(":")[0], *main])
         self._idle: queue.Queue[_Worker] = queue.Queue()
         self._lock = threading.Lock()
         self._all: list[_Worker] = []
@@ -211,17 +281,25 @@ class WorkerPool:
         with self._lock:
             return [w.process.pid for w in self._all]
 
-    def solve(self, raw: bytes, uri: str | None, wait: float | None = None) -> tuple[int, bytes, str, dict]:
+    def solve(self, raw: bytes, uri: str | None, wait: float | None = None, *, timeout: float | None = None,
+              progress=None, cancel=None, started=None,
+              option: str = "--solve-timeout") -> tuple[int, bytes, str, dict]:
         """Solve one request body in a worker. Never raises.
 
         Returns ``(status, response JSON bytes, component uri, info)`` where ``info`` holds ``cachesolve`` and the
         ``inputs`` summary for the access log (see :func:`ghserver.protocol.solve_bytes`).
+
+        ``timeout`` overrides the pool's time limit for this solve (jobs have their own); ``progress(fraction,
+        stage)`` receives the component's progress reports; when ``cancel()`` turns true (polled every
+        ``CANCEL_POLL`` s) the worker is killed and replaced and the answer is :data:`CANCELLED`; ``started()`` is
+        called once a worker has taken the solve; ``option`` is the setting a 504's message says to raise.
         """
         from ghserver.protocol import error_body
 
         def err(status, msg):
             return status, json.dumps(error_body([msg]), ensure_ascii=False).encode("utf-8"), uri or "", {}
 
+        limit = self.timeout if timeout is None else float(timeout)
         if self._closed:
             return err(503, "server is shutting down")
         try:
@@ -232,19 +310,40 @@ class WorkerPool:
             if not w.wait_ready(STARTUP_TIMEOUT):
                 self._replace(w)
                 return err(500, "a solver process failed to start (see the server log)")
-            started = time.monotonic()
-            w.conn.send_bytes(json.dumps({"uri": uri}).encode())
+            if cancel is not None and cancel():
+                self._idle.put(w)
+                return err(CANCELLED, "the solve was cancelled")
+            started_at = time.monotonic()
+            w.conn.send_bytes(json.dumps({"uri": uri, "progress": progress is not None}).encode())
             w.conn.send_bytes(raw)
-            remaining = self.timeout - (time.monotonic() - started)
-            if not w.conn.poll(max(remaining, 0.0)):
-                log.warning("solve of %s passed the %g s time limit: worker %d killed", uri, self.timeout,
-                            w.process.pid)
-                self._replace(w)
-                return err(504, f"solve of {uri or 'the request'} passed the server's time limit of {self.timeout:g} s "
-                                "and was stopped (raise --solve-timeout, or send a smaller input)")
-            header = json.loads(w.conn.recv_bytes())
+            if started is not None:
+                started()
+            while True:
+                remaining = limit - (time.monotonic() - started_at)
+                if cancel is not None and cancel():
+                    log.info("solve of %s cancelled: worker %d killed", uri, w.process.pid)
+                    self._replace(w)
+                    return err(CANCELLED, "the solve was cancelled")
+                if remaining > 0 and not w.conn.poll(min(remaining, CANCEL_POLL) if cancel else remaining):
+                    continue
+                if remaining <= 0:
+                    log.warning("solve of %s passed the %g s time limit: worker %d killed", uri, limit,
+                                w.process.pid)
+                    self._replace(w)
+                    return err(504, f"solve of {uri or 'the request'} passed the server's time limit of {limit:g} s "
+                                    f"and was stopped (raise {option}, or send a smaller input)")
+                header = json.loads(w.conn.recv_bytes())
+                if "progress" in header and "status" not in header:
+                    if progress is not None:
+                        try:
+                            progress(float(header["progress"]), str(header.get("stage", "")))
+                        except Exception:  # a listener's failure never fails the solve
+                            log.exception("progress listener failed")
+                    continue
+                break
             text = w.conn.recv_bytes()
         except (EOFError, OSError, ValueError) as exc:
+            w.process.join(timeout=1.0)  # reap it, so its exit code is known
             code = w.process.exitcode
             log.error("worker %d died during a solve of %s (exit code %s, %s)", w.process.pid, uri or "a request",
                       code, type(exc).__name__)

@@ -136,7 +136,8 @@ def kinks(mesh: Mesh, limit: float = 10.0) -> KinksResult:
     kinks : Numbers
         Kink angle at every interior edge in degrees: the angle between the two panels' planes, 0 when flush.
     signed_kinks : Numbers
-        The same, positive at a ridge (convex seen from the outside of the design surface), negative at a valley.
+        The kinks signed, in degrees: positive at a ridge (convex seen from the outside of the design surface),
+        negative at a valley.
     edges : Lines
         The interior edges, in the order of the kinks.
     max_kink : float

@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.checks import check_choice, check_mesh, check_number
+from components.core import progress
 from components.core.errors import InputError
 from components.core.measures import quad_planarity
 from components.core.mesh import edge_topology, face_sizes, triangulate
@@ -220,10 +221,12 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     check_target_fits(V, T, target)
     center = 0.5 * (V.min(axis=0) + V.max(axis=0))
     V = V - center  # about the bounding-box centre: far from the origin the products would lose digits
+    progress.report(0.0, "direction field")
     t = time.perf_counter()
     U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons,
                            release_separation=release_separation)
     timings["field"] = time.perf_counter() - t
+    progress.report(0.3, "parametrization and quad extraction")
     t = time.perf_counter()
     index = TriangleIndex(V, T)  # one closest-point index for every extraction's relaxations
     if boundary == "auto":
@@ -235,6 +238,7 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     tried.sort(key=lambda r: _score(r[0], target), reverse=True)  # stable: the first of equals stays first
     ex, par = tried[0]
     health, repairs = None, None
+    progress.report(0.85, "repair")
     if repair:
         ex, par, health, repairs = _healthiest(V, T, tried, target, index)
     timings["extract"] = time.perf_counter() - t - timings["parametrize"]

@@ -24,6 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.checks import check_number
+from components.core import progress
 from components.core.errors import InputError
 from components.core.types import Integers, Mesh, Texts, Vectors
 from components.fields.candidate import candidate_mesh, candidate_quality
@@ -173,6 +174,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     tol = check_number(tolerance, "tolerance", 0)
     budget = check_number(time_budget, "time_budget", 0)
     closeness_weight = check_number(closeness_weight, "closeness_weight", 0)
+    progress.report(0.0, "candidate mesh", until=0.5)
     cand = candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary,
                           constraint_faces=constraint_faces, constraint_directions=constraint_directions, repair=True)
     target = float(target_length)
@@ -184,6 +186,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     surface = (np.asarray(mesh[0], dtype=np.float64), cand.T)
     t = time.perf_counter()
     planarized = None
+    progress.report(0.5, "planarize", until=0.95)
     if planarize:
         planarized = _planarized(V, F, surface, tol, budget, closeness_weight, warnings)
     # not asked for, or the solver failed: the candidate itself
@@ -191,6 +194,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     tp = time.perf_counter() - t
     if q.quad_ratio < 0.95:
         warnings.append(f"only {100 * q.quad_ratio:.1f}% of the candidate's faces are quads")
+    progress.report(0.95, "panel health")
     health = face_health(Vp, Fp, surface, tolerance=tol if planarize else 1e300, name="planarized")
     healthy = shape_healthy(health)
     warnings += _health_warnings(health, healthy, cand, planarized is not None)

@@ -962,15 +962,15 @@ def corner_angles(mesh: Mesh) -> CornerAnglesResult:
     max_angle : Numbers
         Per face, the largest interior angle, radians (above π at a reflex corner of a non-convex face).
     smallest_angle : float
-        Smallest corner angle of the mesh.
+        Smallest corner angle of the mesh, radians.
     largest_angle : float
-        Largest corner angle of the mesh.
+        Largest corner angle of the mesh, radians.
     mean_angle : float
-        Mean over all corners.
+        Mean corner angle over all corners, radians.
     std_angle : float
-        Standard deviation over all corners.
+        Standard deviation of the corner angles over all corners, radians.
     variance_angle : float
-        Variance over all corners.
+        Variance of the corner angles over all corners, radians².
 
     Raises
     ------

@@ -45,6 +45,7 @@ import numpy as np
 from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_mesh
 from components.core.checks import check_choice, check_mesh, check_number
+from components.core import progress
 from components.core.errors import InputError, MeshError
 from components.core.measures import max_quad_planarity
 from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
@@ -355,6 +356,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     try:
         for bulge in HEAL_TRIES:
             w_try: list[str] = []
+            progress.report(0.0, "curvature network and candidate", until=0.3)
             V, T, net, rb, cand_health = _candidate(Vn, F0, hn, h, umbilic_threshold, boundary_cells, tracer, w_try,
                                                     t, max_bulge=bulge, networks=networks)
             w_try[:0] = list(net.warnings) + list(rb.warnings)
@@ -364,6 +366,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
             cand = _Cand(rb.V, rb.F, rb.quad_fraction, w_try)
             if tries and _same(tries[-1][0], cand):  # the looser bound changed nothing
                 continue
+            progress.report(0.3, "conical optimization", until=0.9)
             out = _finished(V, T, cand, optimize, closeness_weight, time_budget - t["optimize"], t)
             tries.append((cand, out, bulge))
             if out.healthy or not (optimize and extend and t["optimize"] < time_budget):
@@ -398,6 +401,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     max_pl, max_crit, max_dev, close = out.max_planarity, out.max_criterion, out.max_deviation, out.closeness
     healthy, coverage, violations, is_conical = out.healthy, out.coverage, list(out.violations), out.is_conical
     L = _mean_edge(X, F)
+    progress.report(0.9, "offset")
     t3 = time.perf_counter()
     dn = d / fr.scale
     if d != 0:
@@ -500,7 +504,8 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     quad_fraction : float
         Fraction of the candidate's faces that are quads.
     mean_angle_error : float
-        Mean angle (degrees) between the candidate's edges and the principal directions, away from umbilics.
+        Mean angle (degrees) between the candidate's edges and the principal directions, away from umbilics (over
+        all edges when the surface is umbilic or flat almost everywhere, where the directions are arbitrary).
     candidate_max_planarity : float
         Largest face planarity of the candidate (scale-free).
     candidate_max_criterion : float

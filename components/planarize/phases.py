@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from components.core import progress
 from components.planarize.guard import PanelGuard, State, evaluate, panel_guard
 from components.planarize.problem import closeness
 from components.planarize.rows import soft_terms
@@ -140,6 +141,7 @@ def iterate(prob, guard, t0: float) -> Run:
     opts = prob.opts
     run = start(prob, guard, t0)
     while not run.stop_reason:
+        progress.report(run.elapsed() / max(opts.time_budget, 1e-3), f"planarize, iteration {run.it}")
         if run.converged:
             if run.phase == "restore" and opts.optimize_iterations > 0 and run.elapsed() < 0.5 * opts.time_budget:
                 run.phase = "optimize"

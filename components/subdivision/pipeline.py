@@ -34,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.checks import check_choice, check_int, check_number, validate_mesh
+from components.core import progress
 from components.core.errors import InputError
 from components.core.measures import (corner_angles, max_quad_planarity, nonconvex_faces, quad_planarity,
                                       warping_height)
@@ -335,6 +336,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     # ---- heavy work
     timings: dict = {}
     warnings: list[str] = []
+    progress.report(0.0, "coarse net, subdivision, pull", until=0.3)
     cand = _candidate(V, T, None if coarse is None else (Vc, Fc), faces, layout, levels, max_faces, spread_boundary, timings)
     n_folds = 0 if coarse is not None else _candidate_folds(cand, (V, T))
     if n_folds:
@@ -347,6 +349,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     mean_edge = _mean_edge(Xc, Qs)
     res = None
     X = Xc
+    progress.report(0.3, "planarize", until=0.9)
     if planarize:
         t = time.perf_counter()
         res = _planarized(Xc, Qs, (V, T), closeness_weight, fairness_weight=fairness_weight,
@@ -359,6 +362,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
             res, warning = _backed_off(res, X, Qs, frac, h1, (V, T), tolerance)
             warnings.append(warning)
         timings["health"] = time.perf_counter() - t
+    progress.report(0.9, "panel health")
     t = time.perf_counter()
     health = _health(X, Qs, tolerance, (V, T))
     timings["health"] = timings.get("health", 0.0) + time.perf_counter() - t

@@ -7,7 +7,8 @@ from typing import NamedTuple
 import pytest
 
 from components.core.types import Mesh, Numbers
-from ghserver.registry import RegistrationError, Registry, _entries, _sections, declare
+from ghserver.registry import (RegistrationError, Registry, _entries, _sections, declare, first_sentence,
+                               inline_markup, input_summary, plain_text)
 
 
 class R(NamedTuple):
@@ -171,7 +172,7 @@ def _check_component(c):
         assert p["ParamType"] in ("Number", "Integer", "Boolean", "Text", "Point", "Vector", "Plane", "Line",
                                   "Curve", "Surface", "Mesh")
         assert p["Name"] and p["Description"]
-    assert meta["Description"] == inspect.cleandoc(fn.__doc__).split("\n\n")[0].replace("\n", " ").strip()
+    assert meta["Description"] == plain_text(inspect.cleandoc(fn.__doc__).split("\n\n")[0])
 
 
 def _fields(fn):
@@ -192,3 +193,128 @@ def test_every_published_component_agrees_with_its_function():
 def test_every_echo_component_agrees_with_its_function(echo_registry):
     for c in echo_registry:
         _check_component(c)
+
+
+# plain-text descriptions (Hops shows them verbatim), names, choices ---------------------------------------------
+
+
+class MarkedResult(NamedTuple):
+    mesh: Mesh
+    value: float
+
+
+def marked(mesh: Mesh, method: str = "face", tolerance: float = 1e-3) -> MarkedResult:
+    """Offset a ``(V, F)`` mesh, see :func:`components.conical.cones.offset` and *Pottmann 2007*.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The planar-quad mesh ``(V, F)`` (e.g. a conical one). Second sentence with ``x.y``.
+    method : str
+        ``"face"``: planes moved (:class:`~components.core.types.Plane`); ``"vertex"``: vertices moved.
+    tolerance : float
+        Largest **accepted** error, 2 * 3 units.
+
+    Returns
+    -------
+    mesh : Mesh
+        The offset ``(V, F)``.
+    value : float
+        Largest error of :func:`Offset <components.conical.cones.offset>`, *model units*.
+    """
+    return MarkedResult(mesh, 0.0)
+
+
+def test_metadata_descriptions_are_plain_text_and_pages_keep_the_markup():
+    c = declare(marked, "t/marked", ranges={"tolerance": (0.0, None)})
+    meta = c.metadata()
+    assert meta["Description"] == "Offset a (V, F) mesh, see offset and Pottmann 2007."
+    ins = {p["Name"]: p["Description"] for p in meta["Inputs"]}
+    outs = {p["Name"]: p["Description"] for p in meta["Outputs"]}
+    assert ins == {"mesh": "The planar-quad mesh (V, F) (e.g. a conical one).",
+                   "method": '"face": planes moved (Plane); "vertex": vertices moved.',
+                   "tolerance": "Largest accepted error, 2 * 3 units."}
+    assert outs == {"mesh": "The offset (V, F).", "value": "Largest error of Offset, model units."}
+    # the raw text stays for the HTML pages: whole description, markup intact
+    assert c.doc.startswith("Offset a ``(V, F)`` mesh, see :func:")
+    assert c.inputs[0].doc == "The planar-quad mesh ``(V, F)`` (e.g. a conical one). Second sentence with ``x.y``."
+    assert c.inputs[1].choices == ("face", "vertex")
+    assert c.inputs[0].choices == () and c.inputs[2].choices == ()
+    assert input_summary(c.inputs[1]) == '= "face", one of "face", "vertex"'
+    assert input_summary(c.inputs[2]) == "= 0.001, range [0, ∞]"
+    assert input_summary(c.inputs[0]) == "required"
+
+
+@pytest.mark.parametrize("text, runs", [
+    ("a ``b`` c", [("text", "a "), ("code", "b"), ("text", " c")]),
+    (":func:`~a.b.c` :mod:`ghserver.app` :class:`T <x.Y>`",
+     [("code", "c"), ("text", " "), ("code", "ghserver.app"), ("text", " "), ("code", "T")]),
+    ("*em* **strong** `interp`", [("emph", "em"), ("text", " "), ("strong", "strong"), ("text", " "),
+                                  ("code", "interp")]),
+    ("2 * 3 * 4, a*b, *args", [("text", "2 * 3 * 4, a*b, *args")]),
+    ("unclosed ``code and `tick", [("text", "unclosed ``code and `tick")]),
+    ("``|ω1 − ω2|`` and ``\"face\"``", [("code", "|ω1 − ω2|"), ("text", " and "), ("code", '"face"')]),
+])
+def test_inline_markup_runs(text, runs):
+    assert inline_markup(text) == runs
+    assert plain_text(text) == " ".join("".join(t for _, t in runs).split())
+
+
+@pytest.mark.parametrize("text, first", [
+    ("One. Two.", "One."),
+    ("Mesh (e.g. a dome) here. Then.", "Mesh (e.g. a dome) here."),
+    ("Uses ``a.b. c`` here. Then.", "Uses ``a.b. c`` here."),
+    ("See (the note. inside) end. Then.", "See (the note. inside) end."),
+    ("Liu et al. 2006 show it. Then.", "Liu et al. 2006 show it."),
+    ("No full stop", "No full stop"),
+])
+def test_first_sentence_skips_abbreviations_literals_and_parentheses(text, first):
+    assert first_sentence(text) == first
+
+
+def _published():
+    from ghserver.endpoints import build_registry
+
+    return build_registry()
+
+
+MARKUP = ("``", ":func:", ":class:", ":mod:", ":meth:", "`")
+
+
+def test_published_metadata_is_plain_text_and_named_after_the_uri():
+    """What Hops shows (the Description of the component and of every input and output) carries no docstring
+    markup, and every published component's Name is its URI's last part."""
+    for c in _published():
+        meta = c.metadata()
+        assert meta["Name"] == meta["Nickname"] == c.uri.rsplit("/", 1)[-1], c.uri
+        texts = [meta["Description"]] + [p["Description"] for p in meta["Inputs"] + meta["Outputs"]]
+        for t in texts:
+            assert t and not any(m in t for m in MARKUP), f"{c.uri}: {t!r}"
+            assert not t.endswith(("e.g.", "i.e.", "(e.g.")), f"{c.uri}: cut after an abbreviation: {t!r}"
+            assert t.count("(") == t.count(")"), f"{c.uri}: cut inside parentheses: {t!r}"
+
+
+def test_published_choices_are_values_the_function_knows():
+    """A choice read from a docstring appears as a string literal in the function's module (it is tested there)."""
+    import sys
+
+    n = 0
+    for c in _published():
+        src = inspect.getsource(sys.modules[c.function.__module__])
+        for p in c.inputs:
+            if p.kind == "Text" and p.choices:
+                n += 1
+                assert p.default in p.choices
+                for v in p.choices:
+                    assert f'"{v}"' in src or f"'{v}'" in src, f"{c.uri} {p.name}: {v!r} not in the source"
+    assert n >= 20
+
+
+def test_angle_outputs_state_their_unit():
+    """Angles are radians in the metrics and degrees where a designer reads them (kinks, worst corner): every
+    published angle output says which."""
+    for c in _published():
+        for p in c.outputs:
+            if p.kind == "Number" and set(p.name.split("_")) & {"angle", "angles", "kink", "kinks", "torsion"}:
+                d = p.description.lower()
+                assert "radian" in d or "degree" in d or "°" in d, f"{c.uri} {p.name}: {p.description!r}"

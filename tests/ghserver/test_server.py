@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import json
 import logging
+import signal
 import socket
 import subprocess
 import sys
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -156,6 +158,16 @@ def test_access_log_line_per_request(live_server, caplog):
     assert any(line.startswith("solve echo/scale 200") and "x=1/" in line and "ms" in line for line in lines)
 
 
+def test_access_log_names_the_reason_of_a_refusal_and_empty_inputs(live_server, caplog):
+    with caplog.at_level(logging.INFO, logger="ghserver.access"):
+        r = requests.post(f"{live_server.url}/solve", json=hops_body("echo/scale", hops_tree("x", [])), timeout=10)
+    assert r.status_code >= 400
+    reason = r.json()["errors"][0].splitlines()[0]
+    lines = [r.getMessage() for r in caplog.records if r.name == "ghserver.access"]
+    line = next(line for line in lines if line.startswith("solve echo/scale 4"))
+    assert "x=empty" in line and f"error: {reason[:80]}" in line
+
+
 def test_cli_list_prints_the_catalogue():
     out = subprocess.run([sys.executable, "-m", "ghserver", "list"], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0
@@ -199,3 +211,29 @@ def test_grafted_multi_item_request_end_to_end(live_server):
             expected = quad_planarity(V, Q)
             assert np.allclose([float(it["data"]) for it in got], expected, rtol=1e-12, atol=1e-15)
             assert mx == pytest.approx(expected.max(), rel=1e-12)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM is POSIX")
+def test_serve_logs_its_shutdown_on_sigterm():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "ghserver", "serve", "--port", str(port), "--workers", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            try:
+                if requests.get(f"http://127.0.0.1:{port}/", timeout=2).status_code == 200:
+                    break
+            except requests.ConnectionError:
+                time.sleep(0.2)
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0
+    lines = out.splitlines()
+    assert any("stopping (SIGTERM)" in line for line in lines), out
+    assert lines[-1].endswith("stopped"), out
