@@ -1,4 +1,4 @@
-"""Command line: ``ghserver serve``, ``ghserver list``, ``ghserver fabricate``.
+"""Command line: ``ghserver serve``, ``list``, ``fabricate``, ``report``, ``demo``, ``study``.
 
 ``python -m ghserver`` and the ``ghserver`` console script both call :func:`main`.
 """
@@ -12,6 +12,7 @@ import sys
 import threading
 
 from ghserver import report  # importing it does not load matplotlib
+from ghserver.study import add_study_parser  # importing it loads neither distributed nor the strategies
 
 log = logging.getLogger("ghserver")
 
@@ -331,6 +332,7 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="the comparison report on the built-in surfaces (under 2 minutes)")
     report.add_demo_arguments(d)
     d.set_defaults(func=report.demo_command)
+    add_study_parser(sub)  # ghserver study STUDY.toml [--cluster ADDR | --workers N] [--out DIR]
     fb = sub.add_parser("fabricate", help="flat panels on sheets, panel types, kinks, node axes and beams of a "
                                           "panelling: DXF, CSV cutting list and .3dm")
     fb.add_argument("mesh", help="the panelling: a .3dm (one mesh), .stl (welded), .obj, .off or .ply file")
