@@ -28,11 +28,6 @@ from tests.ghserver.conftest import LiveServer, hops_body, hops_tree
 from tests.ghserver.test_published import CASES
 
 ROOT = Path(__file__).resolve().parents[2]
-# steps the strategies run inside their own cases (fields/pq_from_conjugate_field, network/pq_from_curvature_network,
-# subdivision/pq_from_subdivision): left out to keep this module fast (they are 45% of the cases' solve time)
-REPEATED = {"fields/extract_quads", "fields/streamlines", "fields/smooth_field", "fields/conjugate_field",
-            "subdivision/coarse_mesh", "network/curvature_network", "network/quad_rebuild"}
-
 pytestmark = pytest.mark.skipif(os.name == "nt", reason="POSIX solver processes")
 
 
@@ -82,8 +77,8 @@ def _without_timings(answer: bytes) -> dict:
 
 
 def test_published_components_answer_the_same_on_the_cluster(served):
-    """The cases of test_published.py (but REPEATED): the property holds and the answer equals a local solve's
-    (every output but the timings)."""
+    """Every case of test_published.py: the property holds and the answer equals a local solve's (every output but
+    the timings)."""
     client = Client(served.url)
     registry = J.registry()
 
@@ -102,7 +97,7 @@ def test_published_components_answer_the_same_on_the_cluster(served):
                 _without_timings(r.content) == _without_timings(local_text))
 
     with ThreadPoolExecutor(2) as ex:
-        rows = list(ex.map(one, sorted(set(CASES) - REPEATED)))
+        rows = list(ex.map(one, sorted(CASES)))
     bad = [row for row in rows if not (row[1] == row[2] == 200 and row[3] and row[4])]
     assert not bad, f"(uri, cluster status, local status, property holds, same answer): {bad}"
 
