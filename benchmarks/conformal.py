@@ -1,7 +1,7 @@
 """Benchmark: conformal maps (LSCM, spectral, disk/square) beside libigl, and conical face offsets.
 
 Run from the project root:  ``/work/venv/bin/python benchmarks/conformal.py [--quick] [--pipeline]``
-(``--pipeline``: only the curvature-network table).
+(``--pipeline``: only the curvature-network table; ``--pipeline --quick``: only its ~5k-triangle rows).
 
 Prints three tables:
 1. LSCM (two pinned vertices, the same pins for both) and fixed-boundary disk maps: ours vs ``igl.lscm`` /
@@ -178,11 +178,41 @@ def table_offsets(quick):
               f"| {off.axis_coplanarity.max():.1e} / {np.median(off.axis_coplanarity):.1e} | {crit:.1e} |")
 
 
-def table_curvature_pipeline(quick):
-    """pq_from_curvature_network step timings on ~5k and ~20k triangles (the network traced by
-    components.fields.streamlines when present, else by the private test tracer of tests/components)."""
+def _peak_mb() -> float:
+    try:
+        import resource
+    except ImportError:  # Windows: no peak figure
+        return float("nan")
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
+
+
+def _pipeline_child(conn, case, tracer):
+    """One curvature-network case in a fresh (forked) process: its numbers, CPU seconds and peak memory."""
     from components.network.pipeline import curvature_pipeline
     from components.surfaces.samples import sample_mesh
+
+    name, res, h = case
+    if res:
+        V, T, _ = sample_mesh(name, res)
+    else:
+        V, T = read_mesh(SHARED / "libigl/inspired_mesh.obj")
+        T = triangulate(T)[0]
+    tm = {}
+    c = time.process_time()
+    r = curvature_pipeline((V, T), h, offset=0.1 * h, tracer=tracer, timings=tm)
+    cpu = time.process_time() - c
+    conn.send((len(T), tm, cpu, _peak_mb(), len(r.optimized[1]), r.quad_fraction, r.mean_angle_error,
+               r.max_planarity, r.max_criterion, r.relative_closeness, r.max_offset_error / (0.1 * h), r.healthy,
+               r.coverage))
+    conn.close()
+
+
+def table_curvature_pipeline(quick):
+    """pq_from_curvature_network step timings on ~5k and ~20k triangles (the network traced by
+    components.fields.streamlines when present, else by the private test tracer of tests/components); each case
+    runs in a fresh process (peak memory is its high-water mark; CPU seconds are steadier than the wall clock on
+    a shared machine)."""
+    import multiprocessing as mp
 
     tracer = None
     try:
@@ -192,25 +222,27 @@ def table_curvature_pipeline(quick):
         from tests.components.test_curvature_network import trace_evenly as tracer
     print("\n### pq_from_curvature_network (tracer: " + ("components.fields.streamlines" if tracer is None else
                                                          "private test tracer") + ")\n")
-    print("| surface | triangles | panel | quads % | angle err ° | network s | rebuild s | optimize s | total s "
-          "| max planarity | max criterion | closeness / edge | offset err / d |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| surface | triangles | panel | faces | quads % | angle err ° | network s | rebuild s | optimize s "
+          "| total s | cpu s | peak MB | max planarity | max criterion | closeness / edge | offset err / d | healthy "
+          "| coverage |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     names = ("saddle", "dome", "wave", "canopy")
     cases = [(n, 60, 2.0) for n in names] + ([] if quick else [(n, 120, 1.5) for n in names])
     if (SHARED / "libigl/inspired_mesh.obj").exists():
         cases.append(("inspired_mesh", 0, 2.0))
-    for name, res, h in cases:
-        if res:
-            V, T, _ = sample_mesh(name, res)
-        else:
-            V, T = read_mesh(SHARED / "libigl/inspired_mesh.obj")
-            T = triangulate(T)[0]
-        tm = {}
-        r = curvature_pipeline((V, T), h, offset=0.1 * h, tracer=tracer, timings=tm)
-        print(f"| {name} | {len(T)} | {h:g} | {100 * r.quad_fraction:.1f} | {r.mean_angle_error:.2f} "
+    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+    for case in cases:
+        a, b = ctx.Pipe(duplex=False)
+        p = ctx.Process(target=_pipeline_child, args=(b, case, tracer))
+        p.start()
+        b.close()
+        nt, tm, cpu, peak, nf, qf, ang, pl, crit, close, off, healthy, cov = a.recv()
+        p.join()
+        name, _, h = case
+        print(f"| {name} | {nt} | {h:g} | {nf} | {100 * qf:.1f} | {ang:.2f} "
               f"| {tm['network']:.2f} | {tm['rebuild']:.2f} | {tm.get('optimize', 0):.2f} | {tm['total']:.2f} "
-              f"| {r.max_planarity:.1e} | {r.max_criterion:.1e} | {r.relative_closeness:.3f} "
-              f"| {r.max_offset_error / (0.1 * h):.1e} |")
+              f"| {cpu:.2f} | {peak:.0f} | {pl:.1e} | {crit:.1e} | {close:.3f} | {off:.1e} | {healthy} | {cov:.3f} |",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -8,8 +8,23 @@ Run from the project root::
 
 Each step is a :class:`Step` in :data:`STEPS`: a name, our function and, where a reference library has the step,
 the reference function, both taking ``(V, T)`` of the input. To add a later field step, append a ``Step`` (keep the
-functions module-level so the table stays a list). The table prints seconds (best of ``--repeat`` runs) and the
-ratio ours / reference (below 1 = faster than the reference).
+functions module-level so the table stays a list). The table prints seconds (best of ``--repeat`` runs), CPU seconds
+of the best run, the ratio ours / reference in CPU seconds (below 1 = faster than the reference), the peak resident
+memory of the process that ran ours (each measurement runs in a fresh child process forked after the imports, so the
+peak is that step's high-water mark) and, where the step has one, what the result is (face counts,
+planarity, panel health, coverage: the quality a speed-up must keep). The machine's cores are shared: compare CPU
+seconds and ratios measured in the same run.
+
+Issue #21 rows::
+
+    /work/venv/bin/python benchmarks/fields.py --steps end-to-end --sizes 20000 200000
+    /work/venv/bin/python benchmarks/fields.py --steps remesh --sizes 50000 200000
+
+Measured 2026-12 on the 2-core project machine while it was quiet, before (commit 1e6f7ba) → after issue #21's field
+work, same results bit for bit (candidates, remeshes): remesh 50k 7.8 s (2.5x gpytoolbox.remesh_botsch in CPU
+seconds) → 3.8 s (1.06x), 200k 2.5x → 1.3x; pq_from_conjugate_field 20k 42.8 s (field 11.9, parametrization 3.2,
+extraction 8.4, planarization 18.4) → 20.0 s (4.4, 1.2, 6.9, 6.6), peak 170 MB. The field's sparse factorizations
+had swung 10-100x with OpenBLAS' threads on a busy machine (components.core.blas).
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
@@ -17,6 +32,7 @@ Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 
 from __future__ import annotations
 
 import argparse
+import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
@@ -38,6 +54,7 @@ class Step(NamedTuple):
     reference: Callable | None = None
     reference_name: str = ""
     repeat: int | None = None  # override of --repeat for slow steps
+    quality: Callable | None = None  # result -> short text (what the result is, beside the time)
 
 
 def _mean_edge(V, T):
@@ -126,10 +143,31 @@ def pq_end_to_end_ours(V, T):
     return pq_from_conjugate_field((V, T), 2.5 * _mean_edge(V, T), time_budget=30.0)
 
 
+def candidate_quality(c):
+    return (f"{len(c.F)} faces, {c.quads} quads, {c.singularities} irregular, angle err {c.mean_angle_error:.3f}°, "
+            f"healthy {c.health is None or c.health.healthy}")
+
+
+def pq_quality(r):
+    return (f"{len(r.planarized[1])} faces ({100 * r.quad_ratio:.1f}% quads), candidate max planarity "
+            f"{r.candidate_max_planarity:.2e}, planarized max {r.planarized_max_planarity:.2e} / mean "
+            f"{r.planarized_mean_planarity:.2e}, healthy {r.healthy}, coverage {r.coverage:.3f}; s: field "
+            f"{r.time_field:.1f} param {r.time_parametrize:.1f} extract {r.time_extract:.1f} planarize "
+            f"{r.time_planarize:.1f}")
+
+
+def remesh_quality(out):
+    V2, T2 = out[0], out[1]
+    E = edge_topology(np.asarray(T2, np.int64)).E
+    L = np.linalg.norm(V2[E[:, 1]] - V2[E[:, 0]], axis=1)
+    return f"{len(T2)} triangles, edge / mean: min {L.min() / L.mean():.2f} max {L.max() / L.mean():.2f}"
+
+
+STEPS[0] = STEPS[0]._replace(quality=remesh_quality)
 STEPS += [
     Step("field + seamless parametrization (L=2.5e)", parametrize_ours, repeat=1),
-    Step("candidate: field+param+extract (L=2.5e)", candidate_ours, repeat=1),
-    Step("pq_from_conjugate_field end-to-end", pq_end_to_end_ours, repeat=1),
+    Step("candidate: field+param+extract (L=2.5e)", candidate_ours, repeat=1, quality=candidate_quality),
+    Step("pq_from_conjugate_field end-to-end", pq_end_to_end_ours, repeat=1, quality=pq_quality),
 ]
 
 
@@ -266,12 +304,54 @@ def patch(n_triangles: int, seed: int = 0):
 
 
 def _best(fn, V, T, repeat):
-    best = np.inf
+    """``(best wall seconds, its CPU seconds, last result)`` of ``repeat`` runs."""
+    best, cpu, out = np.inf, np.nan, None
     for _ in range(repeat):
-        t = time.perf_counter()
-        fn(V, T)
-        best = min(best, time.perf_counter() - t)
-    return best
+        t, c = time.perf_counter(), time.process_time()
+        out = fn(V, T)
+        dt = time.perf_counter() - t
+        if dt < best:
+            best, cpu = dt, time.process_time() - c
+    return best, cpu, out
+
+
+def _peak_mb() -> float:
+    try:
+        import resource
+    except ImportError:  # Windows: no peak figure
+        return float("nan")
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
+
+
+def _child(conn, step_index, size_or_path, repeat, which):
+    step = STEPS[step_index]
+    V, T = _input(size_or_path)
+    fn = step.ours if which == "ours" else step.reference
+    wall, cpu, out = _best(fn, V, T, repeat)
+    q = step.quality(out) if (step.quality and which == "ours") else ""
+    conn.send((wall, cpu, _peak_mb(), q))
+    conn.close()
+
+
+def _measure(step_index, size_or_path, repeat, which="ours"):
+    """Run one step on one input in a fresh (forked) process: ``(wall s, cpu s, peak MB, quality text)``."""
+    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+    a, b = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=_child, args=(b, step_index, size_or_path, repeat, which))
+    p.start()
+    b.close()
+    try:
+        res = a.recv()
+    except EOFError:
+        res = (np.nan, np.nan, np.nan, "failed")
+    p.join()
+    return res
+
+
+def _input(size_or_path):
+    if isinstance(size_or_path, int):
+        return patch(size_or_path)
+    return read_mesh(size_or_path)
 
 
 def main(argv=None):
@@ -281,21 +361,25 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--real", action="store_true", help="also time the shared face scan (52k triangles)")
     args = ap.parse_args(argv)
-    inputs = [(f"patch {s // 1000}k", *patch(s)) for s in args.sizes]
+    inputs = [(f"patch {s // 1000}k", s) for s in args.sizes]
     if args.real:
         path = ROOT.parent / "shared" / "data" / "meshes" / "libigl" / "face.obj"
         if path.exists():
-            inputs.append(("face.obj", *read_mesh(path)))
-    steps = [s for s in STEPS if not args.steps or any(k in s.name for k in args.steps)]
-    print(f"{'step':42s} {'input':12s} {'tris':>8s} {'ours s':>9s} {'ref s':>9s} {'ratio':>6s}  reference")
-    for step in steps:
-        for label, V, T in inputs:
+            inputs.append(("face.obj", str(path)))
+    steps = [i for i, s in enumerate(STEPS) if not args.steps or any(k in s.name for k in args.steps)]
+    print(f"{'step':42s} {'input':10s} {'tris':>7s} {'ours s':>8s} {'cpu s':>7s} {'ref s':>8s} {'ref cpu':>7s} "
+          f"{'ratio':>6s} {'peak MB':>8s}  reference / result")
+    for i in steps:
+        step = STEPS[i]
+        for label, src in inputs:
             repeat = step.repeat or args.repeat
-            ours = _best(step.ours, V, T, repeat)
-            ref = _best(step.reference, V, T, repeat) if step.reference else float("nan")
-            ratio = ours / ref if step.reference else float("nan")
-            print(f"{step.name:42s} {label:12s} {len(T):8d} {ours:9.3f} {ref:9.3f} {ratio:6.2f}  "
-                  f"{step.reference_name or '-'}", flush=True)
+            ntri = len(_input(src)[1])
+            wall, cpu, peak, q = _measure(i, src, repeat)
+            rw, rc = (_measure(i, src, repeat, "reference")[:2] if step.reference else (np.nan, np.nan))
+            # same-moment ratio: CPU seconds (the wall clock swings with the other jobs on the machine)
+            ratio = cpu / rc if step.reference else float("nan")
+            print(f"{step.name:42s} {label:10s} {ntri:7d} {wall:8.3f} {cpu:7.3f} {rw:8.3f} {rc:7.3f} {ratio:6.2f} "
+                  f"{peak:8.0f}  {step.reference_name or '-'}{'; ' + q if q else ''}", flush=True)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core import progress
 from components.core.errors import InputError
@@ -39,7 +40,7 @@ from components.fields.parametrize import (
     Parametrization,
     check_target_fits,
     direction_field,
-    seamless_parametrization,
+    seamless_parametrizations,
 )
 from components.fields.repair import candidate_health, repaired_candidate
 
@@ -120,19 +121,23 @@ def _check_constraints(constraint_faces, constraint_directions, m: int):
     return cf, cd
 
 
-def _extract(V, T, U, W, target: float, mode: str, density: float, merge: float, index: TriangleIndex):
-    """One parametrization + extraction with a boundary treatment (see :func:`candidate_mesh`)."""
+def _extracts(V, T, U, W, target: float, mode: str, densities, merge: float, index: TriangleIndex) -> list:
+    """Parametrizations (one per density, sharing their factorization) and extractions with a boundary treatment
+    (see :func:`candidate_mesh`): ``[(extraction, parametrization), ...]``."""
     pmode = {"snap": "free", "mixed": "aligned"}.get(mode, mode)
-    par = seamless_parametrization(V, T, U, W, target, boundary=pmode, density=density,
-                                   free_angle=_FREE_ANGLE if mode == "mixed" else None)
-    ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
-    if mode in ("snap", "mixed"):
-        Vx, Fx, trx, bax, grx = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
-        ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx)
-    Vx, Fx, trx, bax, grx = collapse_short_edges(ex.V, split_large_faces(ex.V, ex.F), ex.tri, ex.bary, ex.grid,
-                                                 target)
-    Vx, trx, bax = relax_edge_lengths(V, T, Vx, Fx, trx, bax, target, index=index)
-    return ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx), par
+    pars = seamless_parametrizations(V, T, U, W, target, densities, boundary=pmode,
+                                     free_angle=_FREE_ANGLE if mode == "mixed" else None)
+    out = []
+    for par in pars:
+        ex = quad_mesh_from_parametrization(V, T, par.UV, merge=merge, target_length=target)
+        if mode in ("snap", "mixed"):
+            Vx, Fx, trx, bax, grx = snap_boundary(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
+            ex = ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx)
+        Vx, Fx, trx, bax, grx = collapse_short_edges(ex.V, split_large_faces(ex.V, ex.F), ex.tri, ex.bary, ex.grid,
+                                                     target)
+        Vx, trx, bax = relax_edge_lengths(V, T, Vx, Fx, trx, bax, target, index=index)
+        out.append((ex._replace(V=Vx, F=Fx, tri=trx, bary=bax, grid=grx), par))
+    return out
 
 
 def _score(ex, target: float) -> tuple:
@@ -144,6 +149,7 @@ def _score(ex, target: float) -> tuple:
     return (q.quad_ratio >= 0.95, min(q.edge_length_within, 0.95), -abs(q.mean_edge_length / target - 1.0))
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignment: float = 0.1,
                    boundary: str = "auto", constraint_faces=None, constraint_directions=None,
                    merge: float = 0.05, name: str = "mesh", release_separation: float | None = None,
@@ -230,10 +236,10 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     t = time.perf_counter()
     index = TriangleIndex(V, T)  # one closest-point index for every extraction's relaxations
     if boundary == "auto":
-        tried = [_extract(V, T, U, W, target, mode, d, merge, index) for mode in ("snap", "mixed") for d in _DENSITIES]
+        tried = [r for mode in ("snap", "mixed") for r in _extracts(V, T, U, W, target, mode, _DENSITIES, merge, index)]
         timings["parametrize"] = sum(p.timings["total"] for _, p in tried)
     else:
-        tried = [_extract(V, T, U, W, target, boundary, 1.0, merge, index)]
+        tried = _extracts(V, T, U, W, target, boundary, (1.0,), merge, index)
         timings["parametrize"] = tried[0][1].timings["total"]
     tried.sort(key=lambda r: _score(r[0], target), reverse=True)  # stable: the first of equals stays first
     ex, par = tried[0]

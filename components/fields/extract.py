@@ -35,6 +35,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import factorized
 from scipy.spatial import cKDTree
 
+from components.core.blas import single_blas_thread
 from components.core.measures import corner_angles, nonconvex_faces
 from components.core.mesh import edge_topology, face_corners, face_normals, face_sizes, pad_faces
 from components.core.proximity import TriangleIndex
@@ -289,13 +290,18 @@ def _faces_from_graph(X, N, a, b, da, db):
             h = nxt_l[h]
         cycles.append(cyc)
         hcycles.append(hs)
-    area = np.zeros(len(cycles))
-    for i, cyc in enumerate(cycles):
-        P = X[cyc]
-        P = P - P[0]  # about a corner: far from the origin the products would cancel
-        Q = np.roll(P, -1, axis=0)
-        nrm = N[cyc].mean(axis=0)
-        area[i] = 0.5 * float(np.cross(P, Q).sum(axis=0) @ nrm)
+    # signed areas, all cycles at once (each cycle's rows are summed in order, as a per-cycle sum would)
+    lens = np.fromiter((len(c) for c in cycles), dtype=np.int64, count=len(cycles))
+    flat = np.fromiter((v for c in cycles for v in c), dtype=np.int64, count=int(lens.sum()))
+    starts = np.cumsum(lens) - lens
+    cid = np.repeat(np.arange(len(cycles)), lens)
+    P = X[flat]
+    P = P - P[starts][cid]  # about a corner: far from the origin the products would cancel
+    nxt_pos = np.arange(len(flat)) + 1
+    nxt_pos[starts + lens - 1] = starts
+    S = np.add.reduceat(np.cross(P, P[nxt_pos]), starts, axis=0)
+    nrm = np.add.reduceat(N[flat], starts, axis=0) / lens[:, None]
+    area = np.array([0.5 * float(S[i] @ nrm[i]) for i in range(len(cycles))])
     return cycles, area, hcycles
 
 
@@ -580,20 +586,77 @@ def boundary_curve(V: np.ndarray, T: np.ndarray) -> BoundaryCurve:
     return BoundaryCurve(V[T[f, c]], V[T[f, (c + 1) % 3]], f, c, (c + 1) % 3)
 
 
-def closest_on_boundary(P: np.ndarray, bc: BoundaryCurve, chunk: int = 2048):
-    """Closest points of ``P`` on the input boundary: points, triangles, barycentric coordinates."""
-    D = bc.B - bc.A
-    dd = np.maximum(np.einsum("ij,ij->i", D, D), 1e-300)
+def _nearest_segments_brute(P, A, D, dd, chunk):
+    """Per point the first segment of least distance and the parameter of its closest point (every segment)."""
     best = np.empty(len(P), dtype=np.int64)
     tbest = np.empty(len(P))
     for s in range(0, len(P), chunk):
         Q = P[s:s + chunk]
-        t = np.clip(np.einsum("qbd,bd->qb", Q[:, None, :] - bc.A[None], D) / dd[None], 0.0, 1.0)
-        X = bc.A[None] + t[..., None] * D[None]
+        t = np.clip(np.einsum("qbd,bd->qb", Q[:, None, :] - A[None], D) / dd[None], 0.0, 1.0)
+        X = A[None] + t[..., None] * D[None]
         d2 = np.einsum("qbd,qbd->qb", X - Q[:, None, :], X - Q[:, None, :])
         j = np.argmin(d2, axis=1)
         best[s:s + chunk] = j
         tbest[s:s + chunk] = t[np.arange(len(Q)), j]
+    return best, tbest
+
+
+_NEAR_K = 8  # segments per point first compared exactly when the boundary is indexed
+_BRUTE_PAIRS = 1 << 18  # below this many point-segment pairs every segment is compared
+
+
+def _nearest_segments_indexed(P, A, D, dd, chunk):
+    """As :func:`_nearest_segments_brute`, comparing only the segments with the nearest midpoints.
+
+    The nearest midpoint is a point of its segment, at distance ``r``, so the closest segment (and every segment
+    as close) has its midpoint within ``r`` plus the longest half segment: when the ``k``-th nearest midpoint is
+    farther than that (with a rounding margin), every candidate is among the ``k``; else ``k`` grows ×4, and a point
+    that still fails is compared with every segment. Candidates are compared in segment order and with the same
+    arithmetic, so the result is the brute force's, bit for bit (the first of equal distances wins).
+    """
+    M = A + 0.5 * D
+    tree = cKDTree(M)
+    half = float(0.5 * np.sqrt(np.einsum("ij,ij->i", D, D)).max())
+    scale = float(np.abs(P).max(initial=0.0) + np.abs(M).max(initial=0.0))
+    best = np.empty(len(P), dtype=np.int64)
+    tbest = np.empty(len(P))
+    todo = np.arange(len(P))
+    k = _NEAR_K
+    while len(todo) and k < len(A):
+        dist, idx = tree.query(P[todo], k=k)
+        reach = (dist[:, 0] + half) * (1.0 + 1e-9) + 1e-12 * scale
+        sure = dist[:, -1] > reach
+        rows = todo[sure]
+        if len(rows):
+            cand = np.sort(idx[sure], axis=1)  # segment order: the first of equal distances wins, as in the brute force
+            Q = P[rows]
+            Ac, Dc = A[cand], D[cand]
+            t = np.clip(np.einsum("qbd,qbd->qb", Q[:, None, :] - Ac, Dc) / dd[cand], 0.0, 1.0)
+            X = Ac + t[..., None] * Dc
+            d2 = np.einsum("qbd,qbd->qb", X - Q[:, None, :], X - Q[:, None, :])
+            j = np.argmin(d2, axis=1)
+            r = np.arange(len(rows))
+            best[rows] = cand[r, j]
+            tbest[rows] = t[r, j]
+        todo = todo[~sure]
+        k *= 4
+    if len(todo):
+        best[todo], tbest[todo] = _nearest_segments_brute(P[todo], A, D, dd, chunk)
+    return best, tbest
+
+
+def closest_on_boundary(P: np.ndarray, bc: BoundaryCurve, chunk: int = 2048):
+    """Closest points of ``P`` on the input boundary: points, triangles, barycentric coordinates.
+
+    Exact: the first closest boundary edge of every point (many points: only the edges with the nearest
+    midpoints are compared, certified, see :func:`_nearest_segments_indexed`)."""
+    P = np.asarray(P, dtype=np.float64)
+    D = bc.B - bc.A
+    dd = np.maximum(np.einsum("ij,ij->i", D, D), 1e-300)
+    if len(P) * len(D) <= _BRUTE_PAIRS or len(D) <= _NEAR_K:
+        best, tbest = _nearest_segments_brute(P, bc.A, D, dd, chunk)
+    else:
+        best, tbest = _nearest_segments_indexed(P, bc.A, D, dd, chunk)
     X = bc.A[best] + tbest[:, None] * D[best]
     bary = np.zeros((len(P), 3))
     bary[np.arange(len(P)), bc.ca[best]] = 1.0 - tbest
@@ -714,8 +777,9 @@ def relabel(Vc, Fc, tri, bary, grid, lab):
     """Apply a vertex relabelling ``lab (p,)`` to the candidate's faces, drop collapsed faces and unused vertices
     (pinched polygons are split into their loops): ``V, F, tri, bary, grid``."""
     faces = []
-    for row in Fc:
-        c = [int(lab[v]) for v in _face_list(row)]
+    labelled = np.asarray(lab, dtype=np.int64)[Fc].tolist() if len(Fc) else []
+    for r, k in zip(labelled, face_sizes(Fc).tolist()):
+        c = r[:k]
         c = [v for i, v in enumerate(c) if v != c[i - 1]] if len(c) > 1 else c
         if len(c) >= 3 and len(set(c)) == len(c):
             faces.append(c)
@@ -725,7 +789,8 @@ def relabel(Vc, Fc, tri, bary, grid, lab):
     used = sorted({v for f in faces for v in f})
     new = np.full(nv, -1, dtype=np.int64)
     new[used] = np.arange(len(used))
-    F = pad_faces([[int(new[v]) for v in f] for f in faces]) if faces else np.zeros((0, 4), dtype=np.int64)
+    new_l = new.tolist()
+    F = pad_faces([[new_l[v] for v in f] for f in faces]) if faces else np.zeros((0, 4), dtype=np.int64)
     idx = np.asarray(used, dtype=np.int64)
     return Vc[idx], F, tri[idx], bary[idx], grid[idx]
 
@@ -1084,6 +1149,7 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
     return relabel(Vc, Fc[keep], tri, bary, grid, np.arange(len(Vc)))
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray,
                        bary: np.ndarray, target_length: float, band: float = 0.25, iterations: int = 10,
                        anchor: float = 0.05, index=None):

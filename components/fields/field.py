@@ -49,6 +49,7 @@ from components.fields.frames import (
     to_complex,
     check_field,
 )
+from components.core.blas import single_blas_thread
 from components.core.checks import check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.mesh import triangulate
@@ -369,6 +370,7 @@ def _finish(V, T, u, v, fr, dg, cv, aniso) -> Field:
 # smooth field
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constraints=None,
                  constraint_weight: float | None = None, align_boundary: bool = True, boundary_weight: float = 10.0,
                  curvature: FieldCurvature | None = None, curvature_radius: int = 2,
@@ -509,25 +511,77 @@ _CHUNK = 32768  # faces per block in the local step (bounds the temporaries)
 
 
 def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
-    """Local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(m, s)``."""
-    x, y = -k2[:, None] * sa, k1[:, None] * ca
-    r2 = x * x + y * y
-    r2 = np.where(r2 > 0, r2, 1.0)
-    c2b, s2b = (x * x - y * y) / r2, 2.0 * x * y / r2  # doubled angle of b
-    c2a, s2a = ca * ca - sa * sa, 2.0 * ca * sa
-    ar, ai = A2.real[:, None], A2.imag[:, None]
-    br, bi = B2.real[:, None], B2.imag[:, None]
-    # 2 sin² of line angles = 1 − cos of doubled angles; both assignments of (a, b) to (α, β)
-    d1 = 2.0 - (c2a * ar + s2a * ai) - (c2b * br + s2b * bi)
-    d2 = 2.0 - (c2a * br + s2a * bi) - (c2b * ar + s2b * ai)
+    """Local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(m, s)``.
+
+    Written with in-place operations on a few ``(m, s)`` buffers (the step runs it tens of times on every face);
+    every value is computed with the same operations in the same order as the plain formulas in the comments.
+    """
+    x = np.multiply(-k2[:, None], sa)  # x, y = −k2 sin a, k1 cos a
+    y = np.multiply(k1[:, None], ca)
+    xx = x * x
+    yy = y * y
+    r2 = xx + yy
+    np.copyto(r2, 1.0, where=~(r2 > 0))  # r2 = where(r2 > 0, r2, 1)
+    c2b = np.subtract(xx, yy, out=xx)  # doubled angle of b: (x² − y²) / r2, 2 x y / r2
+    c2b /= r2
+    s2b = np.multiply(x, 2.0, out=x)
+    s2b *= y
+    s2b /= r2
+    c2a = np.multiply(ca, ca, out=yy)  # c2a, s2a = cos² a − sin² a, 2 cos a sin a
+    t = np.multiply(sa, sa, out=r2)
+    c2a -= t
+    s2a = np.multiply(ca, 2.0, out=y)
+    s2a *= sa
+    ar, ai = A2.real.copy()[:, None], A2.imag.copy()[:, None]
+    br, bi = B2.real.copy()[:, None], B2.imag.copy()[:, None]
+    # 2 sin² of line angles = 1 − cos of doubled angles; both assignments of (a, b) to (α, β):
+    # d1 = 2 − (c2a ar + s2a ai) − (c2b br + s2b bi), d2 = 2 − (c2a br + s2a bi) − (c2b ar + s2b ai)
+    u = np.empty_like(c2a)
+
+    def pair(p, q, out):  # c2a p + s2a q
+        np.multiply(c2a, p, out=out)
+        np.multiply(s2a, q, out=u)
+        out += u
+        return out
+
+    d1 = pair(ar, ai, np.empty_like(c2a))
+    np.subtract(2.0, d1, out=d1)
+    e = np.multiply(c2b, br)
+    np.multiply(s2b, bi, out=u)
+    e += u
+    d1 -= e
+    d2 = pair(br, bi, e)
+    np.subtract(2.0, d2, out=d2)
+    np.multiply(c2b, ar, out=t)
+    np.multiply(s2b, ai, out=u)
+    t += u
+    d2 -= t
     swap = d2 < d1
-    D = 0.5 * np.minimum(d1, d2)
-    sep = 0.5 * (1.0 - (c2a * c2b + s2a * s2b))
-    D = D + np.where(sep < smin, 4.0 + (smin - sep), 0.0)
+    D = np.minimum(d1, d2, out=d1)  # D = 0.5 min(d1, d2)
+    D *= 0.5
+    # sep = 0.5 (1 − (c2a c2b + s2a s2b)); D += where(sep < smin, 4 + (smin − sep), 0)
+    sep = np.multiply(c2a, c2b, out=d2)
+    np.multiply(s2a, s2b, out=u)
+    sep += u
+    np.subtract(1.0, sep, out=sep)
+    sep *= 0.5
+    close = sep < smin
+    np.subtract(smin, sep, out=sep)
+    sep += 4.0
+    sep[~close] = 0.0
+    D += sep
     if T2 is not None:
-        tr, ti = T2.real[:, None], T2.imag[:, None]
-        tb = 0.5 * (1.0 - np.maximum(c2a * tr + s2a * ti, c2b * tr + s2b * ti))
-        D = D + tau_weight[:, None] * tb  # T2 = 0 where a face has no boundary edge: a constant, no effect
+        # tb = 0.5 (1 − max(c2a tr + s2a ti, c2b tr + s2b ti)); D += tau_weight tb
+        tr, ti = T2.real.copy()[:, None], T2.imag.copy()[:, None]
+        ta = pair(tr, ti, t)
+        tb = np.multiply(c2b, tr, out=sep)
+        np.multiply(s2b, ti, out=u)
+        tb += u
+        np.maximum(ta, tb, out=ta)
+        np.subtract(1.0, ta, out=ta)
+        ta *= 0.5
+        ta *= tau_weight[:, None]  # T2 = 0 where a face has no boundary edge: a constant, no effect
+        D += ta
     return D, swap
 
 
@@ -641,6 +695,7 @@ def _conjugacy_weights(cv: FieldCurvature) -> np.ndarray:
     return np.minimum(1.0, s * s / ref)
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def conjugate_frame_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.ndarray, smoothness: float = 1.0,
                     iterations: int = 40, conjugacy_weight: float = 3.0, closeness: float = 0.01,
                     min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,

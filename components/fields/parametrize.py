@@ -48,6 +48,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 from scipy.sparse.linalg import splu
 
+from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
@@ -67,6 +68,7 @@ __all__ = [
     "field_angle_error",
     "parametrize",
     "seamless_parametrization",
+    "seamless_parametrizations",
     "iso_lines",
 ]
 
@@ -174,6 +176,7 @@ def _smoothed_principal_field(V: np.ndarray, T: np.ndarray, alignment: float, co
     return U, W
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alignment: float = 0.1,
                     constraints=None, release_separation: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per-face field directions ``U, W`` for the parametrization (:mod:`components.fields.field`, or principal).
@@ -715,10 +718,37 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     Mixed-integer quadrangulation (Bommes, Zimmer & Kobbelt 2009) with cuts from the singularities to the
     boundary; the non-orthogonal frame is followed through its dual basis (Liu et al. 2011). See the module notes.
     """
+    return seamless_parametrizations(V, T, U, W, target_length, (density,), boundary=boundary,
+                                     boundary_weight=boundary_weight, min_run=min_run, round_batch=round_batch,
+                                     center_sizes=center_sizes, free_angle=free_angle)[0]
+
+
+@single_blas_thread()  # sparse factorizations: see components.core.blas
+def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray, target_length: float,
+                              densities=(1.0,), boundary: str = "aligned", boundary_weight: float = 1e4,
+                              min_run: float = 1.5, round_batch: float = 0.1, center_sizes: bool = True,
+                              free_angle: float | None = None) -> list[Parametrization]:
+    """:func:`seamless_parametrization` at several densities, sharing everything the density does not change.
+
+    The matching, cuts, assembly, factorization and relaxed solution depend on the density only through a final
+    scale, so they are computed once; each density then has its own rounding. Every result is the one
+    :func:`seamless_parametrization` gives for that density; the shared seconds are in the first one's timings.
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(6, 6, 3.0, 3.0)
+    >>> T = triangulate(Q)[0]
+    >>> U, W = np.tile([1.0, 0.0, 0.0], (len(T), 1)), np.tile([0.0, 1.0, 0.0], (len(T), 1))
+    >>> pars = seamless_parametrizations(V, T, U, W, 1.0, densities=(1.0, 2.0), boundary="free")
+    >>> [round(float(np.ptp(p.UV[..., 0])), 6) for p in pars]  # twice the density: twice the iso-lines
+    [3.0, 6.0]
+    """
     timings = {}
     t0 = time.perf_counter()
-    V, T, U, W, target, bw, density, free_angle = _checked_inputs(V, T, U, W, target_length, boundary,
-                                                                  boundary_weight, density, free_angle)
+    V, T, U, W, target, bw, _, free_angle = _checked_inputs(V, T, U, W, target_length, boundary, boundary_weight,
+                                                            1.0, free_angle)
+    densities = [check_number(d, "density", 0, above=True) for d in densities]
     m = len(T)
     tp = _topology(V, T)
     loops = _disk_boundary_loops(V, T)
@@ -728,10 +758,10 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     sing, turns = _singular_vertices(T, tp, match, len(V))
     timings["matching"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    paths, kinds, warnings = _cut_paths(V, T, tp, sing, loops)
+    paths, kinds, warnings0 = _cut_paths(V, T, tp, sing, loops)
     cuts = _build_cuts(V, T, tp, match, paths, kinds)
     if cuts.inconsistent:
-        warnings.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
+        warnings0.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
     Uc, Wc = _rot_frame(U, W, cuts.comb)
     timings["cut_graph"] = time.perf_counter() - t1
     t2 = time.perf_counter()
@@ -744,31 +774,38 @@ def seamless_parametrization(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.
     timings["assemble"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
-    y0 = lu.solve(b)
-    scale = 1.0
+    y_relaxed = lu.solve(b)
+    center = 1.0
     if center_sizes:  # every constraint is homogeneous: the relaxed solution for h / s is s times this one
-        scale = _centering_scale(V, T, (P @ y0).reshape(2, lay.nc).T[corner_copy], target, tp.area)
-    scale *= density
-    y0 = y0 * scale
-    timings["factor_solve"] = time.perf_counter() - t3
-    t4 = time.perf_counter()
+        center = _centering_scale(V, T, (P @ y_relaxed).reshape(2, lay.nc).T[corner_copy], target, tp.area)
     ints = _integer_columns(cuts, kinds, lay)
-    y = _greedy_round(lu, y0, ints, round_batch)
-    timings["rounding"] = time.perf_counter() - t4
-    X, boundary_gap, seam_gap = _copy_parameters(P, y, cuts, kinds, lay, bd)
-    UV = X[corner_copy]
-    d1 = UV[:, 1] - UV[:, 0]
-    d2 = UV[:, 2] - UV[:, 0]
-    flipped = int(np.count_nonzero(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] <= 0))
-    if flipped:
-        warnings.append(f"{flipped} triangles are inverted in the parametrization (the field is hard to follow there)")
-    err = field_angle_error(V, T, UV, Uc, Wc)
-    timings["total"] = time.perf_counter() - t0
+    timings["factor_solve"] = time.perf_counter() - t3
     cut_edges = np.array([[p[i], p[i + 1]] for p in paths for i in range(len(p) - 1)], dtype=np.int64).reshape(-1, 2)
-    log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
-              len(ints), timings["total"])
-    return Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, seam_gap, boundary_gap, corner_copy,
-                           warnings, timings, scale)
+    shared = time.perf_counter() - t0
+    out = []
+    for density in densities:
+        t4 = time.perf_counter()
+        scale = center * density
+        y0 = y_relaxed * scale
+        y = _greedy_round(lu, y0, ints, round_batch)
+        tm = dict(timings) if not out else {k: 0.0 for k in timings}
+        tm["rounding"] = time.perf_counter() - t4
+        warnings = list(warnings0)
+        X, boundary_gap, seam_gap = _copy_parameters(P, y, cuts, kinds, lay, bd)
+        UV = X[corner_copy]
+        d1 = UV[:, 1] - UV[:, 0]
+        d2 = UV[:, 2] - UV[:, 0]
+        flipped = int(np.count_nonzero(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0] <= 0))
+        if flipped:
+            warnings.append(f"{flipped} triangles are inverted in the parametrization (the field is hard to follow "
+                            "there)")
+        err = field_angle_error(V, T, UV, Uc, Wc)
+        tm["total"] = time.perf_counter() - t4 + (shared if not out else 0.0)
+        log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
+                  len(ints), tm["total"])
+        out.append(Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, seam_gap, boundary_gap,
+                                   corner_copy, warnings, tm, scale))
+    return out
 
 
 def _checked_inputs(V, T, U, W, target_length, boundary, boundary_weight, density, free_angle):

@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from components.core.blas import single_blas_thread
 from components.core.checks import check_number
 from components.core import progress
 from components.core.errors import InputError
@@ -218,6 +219,7 @@ def _health_warnings(health, healthy: bool, cand, planarized: bool) -> list:
     return out
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def _planarized(V: np.ndarray, F: np.ndarray, reference: tuple, tol: float, budget: float, closeness_weight: float,
                 warnings: list):
     """Planarize the candidate against the input surface ``reference``: ``((V, F), max planarity, mean planarity,

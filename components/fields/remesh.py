@@ -23,6 +23,7 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from components.core.curvature import vertex_normals
@@ -60,14 +61,46 @@ def _unkey(k):
     return k // _BIG, k % _BIG
 
 
+def _group_order(x: np.ndarray, n: int) -> np.ndarray:
+    """``np.argsort(x, kind="stable")`` for integers ``0 <= x < n``, fast: one ``np.sort`` of the values with their
+    positions packed into the low bits when both fit into 62 bits, else a counting sort (scipy's COO → CSR
+    conversion keeps the input order within a row)."""
+    m = len(x)
+    if m == 0:
+        return np.zeros(0, dtype=np.int64)
+    bi = max(int(m - 1).bit_length(), 1)
+    if max(int(n - 1).bit_length(), 1) + bi <= 62:
+        return np.sort((x.astype(np.int64) << bi) | np.arange(m, dtype=np.int64)) & ((1 << bi) - 1)
+    M = sp.csr_matrix((np.ones(m, dtype=np.int8), (x, np.arange(m))), shape=(n, m))
+    return M.indices.astype(np.int64, copy=False)
+
+
+def _pair_order(lo: np.ndarray, hi: np.ndarray, n: int) -> np.ndarray:
+    """``np.argsort(lo · n + hi, kind="stable")`` for integers in ``[0, n)`` (as :func:`_group_order`)."""
+    m = len(lo)
+    bi, bn = max(int(m - 1).bit_length(), 1), max(int(n - 1).bit_length(), 1)
+    if 2 * bn + bi <= 62:
+        key = (lo.astype(np.int64) << (bn + bi)) | (hi.astype(np.int64) << bi) | np.arange(m, dtype=np.int64)
+        return np.sort(key) & ((1 << bi) - 1)
+    by_hi = _group_order(hi, n)  # two stable counting sorts: by the larger end, then by the smaller one
+    return by_hi[_group_order(lo[by_hi], n)]
+
+
 class _Topo:
-    """Edges, half-edge ↔ edge maps, adjacency and vertex-face stars of a manifold triangle mesh."""
+    """Edges, half-edge ↔ edge maps, adjacency and vertex-face stars of a manifold triangle mesh.
+
+    ``adj``/``adj_ptr`` (neighbours) and ``vf``/``vf_ptr`` (faces around a vertex) are built on first use: only the
+    collapses need them, and the splits, flips and relaxation rebuild the topology every batch.
+    """
 
     def __init__(self, T: np.ndarray, n: int):
         self.T = T
         t = len(T)
-        HK = _key(T, np.roll(T, -1, axis=1)).ravel()  # half-edge 3f+i: T[f,i] → T[f,i+1]
-        order = np.argsort(HK, kind="stable")
+        R = np.roll(T, -1, axis=1)
+        lo = np.minimum(T, R).ravel().astype(np.int64, copy=False)
+        hi = np.maximum(T, R).ravel().astype(np.int64, copy=False)
+        HK = lo * _BIG + hi  # half-edge 3f+i: T[f,i] → T[f,i+1]
+        order = _pair_order(lo, hi, n)  # the stable order of the keys
         sk = HK[order]
         first = np.ones(len(sk), dtype=bool)
         first[1:] = sk[1:] != sk[:-1]
@@ -78,27 +111,46 @@ class _Topo:
         self.HE[order] = eid
         self.count = np.bincount(eid, minlength=e)
         EH = np.full((e, 2), -1, dtype=np.int64)
-        EH[eid[first], 0] = order[first]
+        h0 = order[first]
+        EH[:, 0] = h0  # the first half-edge of edge i is the i-th first one
         second = ~first
         EH[eid[second], 1] = order[second]
         self.EH = EH
-        self.E = np.stack(_unkey(self.ekey), axis=1)
+        self.E = np.stack([lo[h0], hi[h0]], axis=1)
         self.n = n
         self.valence = np.bincount(self.E.ravel(), minlength=n)
-        # adjacency CSR without self loops
-        src = np.concatenate([self.E[:, 0], self.E[:, 1]])
-        dst = np.concatenate([self.E[:, 1], self.E[:, 0]])
-        o = np.argsort(src, kind="stable")
-        self.adj = dst[o]
-        self.adj_ptr = np.concatenate([[0], np.cumsum(self.valence)])
-        # vertex → faces
-        flat = T.ravel()
-        o = np.argsort(flat, kind="stable")
-        self.vf = o // 3
-        self.vf_ptr = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=n))])
         bmask = np.zeros(n, dtype=bool)
         bmask[self.E[self.count == 1].ravel()] = True
         self.boundary = bmask
+        self._adj = self._vf = self._adj_ptr = self._vf_ptr = None
+
+    @property
+    def adj(self) -> np.ndarray:
+        """Neighbours of every vertex (CSR with :attr:`adj_ptr`, no self loops)."""
+        if self._adj is None:
+            src = np.concatenate([self.E[:, 0], self.E[:, 1]])
+            dst = np.concatenate([self.E[:, 1], self.E[:, 0]])
+            self._adj = dst[_group_order(src, self.n)]
+        return self._adj
+
+    @property
+    def adj_ptr(self) -> np.ndarray:
+        if self._adj_ptr is None:
+            self._adj_ptr = np.concatenate([[0], np.cumsum(self.valence)])
+        return self._adj_ptr
+
+    @property
+    def vf(self) -> np.ndarray:
+        """Faces around every vertex (CSR with :attr:`vf_ptr`)."""
+        if self._vf is None:
+            self._vf = _group_order(self.T.ravel(), self.n) // 3
+        return self._vf
+
+    @property
+    def vf_ptr(self) -> np.ndarray:
+        if self._vf_ptr is None:
+            self._vf_ptr = np.concatenate([[0], np.cumsum(np.bincount(self.T.ravel(), minlength=self.n))])
+        return self._vf_ptr
 
     def has_edge(self, keys):
         pos = np.searchsorted(self.ekey, keys)
@@ -328,8 +380,9 @@ def _split_long(S: _State, hi: float) -> int:
     long = L > hi
     if not long.any():
         return 0
-    rank = np.empty(len(L), dtype=np.int64)
-    rank[np.argsort(L, kind="stable")] = np.arange(len(L))
+    rank = np.full(len(L), -1, dtype=np.int64)  # the order of the long edges by length (only they compete)
+    li = np.nonzero(long)[0]
+    rank[li[np.argsort(L[li], kind="stable")]] = np.arange(len(li))
     HE = topo.HE.reshape(-1, 3)
     hval = np.where(long[HE], rank[HE], -1)
     slot = np.argmax(hval, axis=1)
@@ -433,7 +486,8 @@ def _collapse_short(S: _State, lo: float, hi: float) -> int:
     # two edges: keep the best collapse at each shared opposite vertex.
     big = np.iinfo(np.int64).max
     pri = np.full(S.n, big, dtype=np.int64)
-    rank = np.argsort(np.argsort(_scramble(topo.ekey[cand]), kind="stable"))
+    rank = np.empty(len(cand), dtype=np.int64)
+    rank[np.argsort(_scramble(topo.ekey[cand]), kind="stable")] = np.arange(len(cand))
     np.minimum.at(pri, r, rank)
     np.minimum.at(pri, k, rank)
     reach = _closed_ring_min(topo, pri)
@@ -480,18 +534,24 @@ def _flip_valence(S: _State) -> int:
     gain = before - after
     ok = gain > 0
     ok &= (val[a] - 1 >= np.where(topo.boundary[a], 2, 3)) & (val[b] - 1 >= np.where(topo.boundary[b], 2, 3))
-    ok &= ~topo.has_edge(_key(c, d)) & (c != d)
+    ok &= c != d
+    # the remaining checks only on the survivors of the cheap ones (most edges have no valence gain)
+    s = np.nonzero(ok)[0]
+    s = s[~topo.has_edge(_key(c[s], d[s]))]
     # geometry: the new triangles (c, a, d) and (d, b, c) must not fold
-    No1, _ = _unit_normals(V[a], V[b], V[c])
-    No2, _ = _unit_normals(V[b], V[a], V[d])
-    Nn1, A1 = _unit_normals(V[c], V[a], V[d])
-    Nn2, A2 = _unit_normals(V[d], V[b], V[c])
+    Va, Vb, Vc, Vd = V[a[s]], V[b[s]], V[c[s]], V[d[s]]
+    No1, _ = _unit_normals(Va, Vb, Vc)
+    No2, _ = _unit_normals(Vb, Va, Vd)
+    Nn1, A1 = _unit_normals(Vc, Va, Vd)
+    Nn2, A2 = _unit_normals(Vd, Vb, Vc)
     Nsum = No1 + No2
-    ok &= (np.einsum("ij,ij->i", Nn1, Nsum) > 0) & (np.einsum("ij,ij->i", Nn2, Nsum) > 0)
+    good = (np.einsum("ij,ij->i", Nn1, Nsum) > 0) & (np.einsum("ij,ij->i", Nn2, Nsum) > 0)
     old_cos = np.einsum("ij,ij->i", No1, No2)
-    ok &= np.einsum("ij,ij->i", Nn1, Nn2) >= np.minimum(old_cos, _FLIP_COS)
-    scale = np.einsum("ij,ij->i", V[a] - V[b], V[a] - V[b])
-    ok &= (A1 > 1e-6 * scale) & (A2 > 1e-6 * scale)
+    good &= np.einsum("ij,ij->i", Nn1, Nn2) >= np.minimum(old_cos, _FLIP_COS)
+    scale = np.einsum("ij,ij->i", Va - Vb, Va - Vb)
+    good &= (A1 > 1e-6 * scale) & (A2 > 1e-6 * scale)
+    ok = np.zeros(len(e), dtype=bool)
+    ok[s[good]] = True
     idx = np.nonzero(ok)[0]
     if len(idx) == 0:
         return 0

@@ -583,16 +583,20 @@ def _smoothed(state, hl: PanelHealth, FN: np.ndarray, index, bc, bounds):
         cand = np.nonzero(active)[0]
         if not len(cand):
             break
-        normal = _face_normals(X, faces, FN, tri)
+        normal = _face_normals(Fc, FN, tri)
         locs = {v: _local(v, vf[v], faces, normal) for v in cand.tolist()}
         cur = {v: _scores(X[locs[v].verts][None], locs[v]) for v in locs}
         order = sorted(locs, key=lambda v: (_quantized(cur[v][0][0]), v))
         taken = np.zeros(nv, dtype=bool)
         any_move = False
+        # every vertex's trials at once (one closest-point query): a vertex is tried only while no vertex of its
+        # faces has moved in this sweep (a move takes the whole star), so its trials are those of the sweep's start
+        trials = _trial_batch([v for v in order if _quantized(cur[v][0][0]) < goal], X, faces, vf, nbrs, onb,
+                              index, bc)
         for v in order:
             if taken[v] or _quantized(cur[v][0][0]) >= min_angle + _MARGIN:
                 continue
-            Y, t_, b_ = _trial_positions(v, X, faces, vf, nbrs, onb, index, bc)
+            Y, t_, b_ = trials[v]
             loc = locs[v]
             P = np.repeat(X[loc.verts][None], len(Y), axis=0)
             P[:, 0] = Y
@@ -624,11 +628,14 @@ def _near_bounds(hl: PanelHealth, min_angle: float) -> np.ndarray:
     return (hl.min_corner < min_angle + _MARGIN) | (hl.max_corner > 180.0 - min_angle - _MARGIN)
 
 
-def _face_normals(X, faces: list, FN: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Unit surface normal of every face: the mean of the input normals under its corners."""
-    out = np.zeros((len(faces), 3))
-    for i, c in enumerate(faces):
-        out[i] = FN[tri[c]].sum(axis=0)
+def _face_normals(Fc: np.ndarray, FN: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Unit surface normal of every face (padded ``Fc``): the mean of the input normals under its corners (summed
+    corner by corner, in the faces' order)."""
+    k = face_sizes(Fc)
+    out = FN[tri[Fc[:, 0]]]
+    for j in range(1, Fc.shape[1]):
+        has = k > j
+        out = np.where(has[:, None], out + FN[tri[np.where(has, Fc[:, j], Fc[:, 0])]], out)
     return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
 
 
@@ -651,9 +658,8 @@ def _outline_corners(Vc, topo, onb) -> np.ndarray:
     return fixed
 
 
-def _trial_positions(v: int, X, faces: list, vf: list, nbrs: list, onb, index, bc):
-    """Positions to try for vertex ``v``, put back on the surface (on the boundary for boundary vertices):
-    points, their triangles and barycentric coordinates."""
+def _trial_points(v: int, X, faces: list, vf: list, nbrs: list) -> np.ndarray:
+    """Positions to try for vertex ``v`` (before they are put back on the surface)."""
     targets = [X[nbrs[v]].mean(axis=0)]
     para, cents = [], []
     for f in vf[v]:
@@ -681,8 +687,26 @@ def _trial_positions(v: int, X, faces: list, vf: list, nbrs: list, onb, index, b
     for a in np.arange(_RING) * (2.0 * np.pi / _RING):
         for t in _RADII:
             Y.append(x + t * r * (np.cos(a) * e1 + np.sin(a) * e2))
-    Y = np.asarray(Y)
-    if onb[v]:
-        return closest_on_boundary(Y, bc)
-    q = index.query(Y)
-    return q.points, q.faces, q.barycentric
+    return np.asarray(Y)
+
+
+def _trial_batch(vs: list, X, faces: list, vf: list, nbrs: list, onb, index, bc) -> dict:
+    """Positions to try for every vertex of ``vs``, put back on the surface (on the boundary for boundary
+    vertices): ``{v: (points, triangles, barycentric coordinates)}``. One closest-point query for all interior
+    vertices and one for the boundary ones (a point's closest point does not depend on the others)."""
+    Ys = [_trial_points(v, X, faces, vf, nbrs) for v in vs]
+    out = {}
+    for on_boundary in (True, False):
+        idx = [i for i, v in enumerate(vs) if bool(onb[v]) == on_boundary]
+        if not idx:
+            continue
+        P = np.concatenate([Ys[i] for i in idx])
+        if on_boundary:
+            pts, tri, bary = closest_on_boundary(P, bc)
+        else:
+            q = index.query(P)
+            pts, tri, bary = q.points, q.faces, q.barycentric
+        ends = np.cumsum([len(Ys[i]) for i in idx])
+        for i, b, e in zip(idx, ends - [len(Ys[i]) for i in idx], ends):
+            out[vs[i]] = (pts[b:e], tri[b:e], bary[b:e])
+    return out

@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 from components.core.checks import check_choice, check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.mesh import triangulate
-from components.core.proximity import closest_points
+from components.core.proximity import TriangleIndex, closest_points
 from components.core.types import Curves, Mesh, Points
 from components.fields.field import conjugate_frame_field, field_curvature, smooth_frame_field
 from components.fields.frames import check_field, dual_graph, face_frames, field_singularities
@@ -44,10 +44,6 @@ _MAX_POINTS = 2_000_000  # total polyline points a call may produce
 
 # ----------------------------------------------------------------------------------------------
 # the tracer: per-face data as Python lists of complex numbers (2D face coordinates)
-
-
-def _cross(a: complex, b: complex) -> float:
-    return a.real * b.imag - a.imag * b.real
 
 
 def _dot3(a, b) -> float:
@@ -94,18 +90,36 @@ class _Tracer:
             reach = self.radius + float(np.max(elen)) * 2.0
             d, _ = tree.query(fr.centroid, distance_upper_bound=reach)
             near = np.isfinite(d)
-        # Python lists for fast scalar access
-        self.Zl = Z.tolist()
-        self.nbr = nbr.tolist()
-        self.nbe = nbe.tolist()
-        self.fv = self.face_vec.tolist()
-        self.cv = self.corner_vec.tolist()
+        # flat Python lists (one container each: fast scalar access, nothing for the garbage collector to walk)
+        self.m = m
+        self.Zf = Z.ravel().tolist()  # corner c of face f: Zf[3 f + c]
+        self.nbr = nbr.ravel().tolist()  # neighbour across edge j of face f: nbr[3 f + j]
+        self.nbe = nbe.ravel().tolist()
+        self.fvf = self.face_vec.ravel().tolist()  # face vector of family k: fvf[2 f + k]
+        self.cvf = self.corner_vec.ravel().tolist()  # corner c of family k: cvf[6 f + 3 k + c]
         self.near = near.tolist()
         self.sing_pts = V[self.singular].tolist() if len(self.singular) else []
-        self.o = V[T[:, 0]].tolist()
-        self.e1 = fr.e1.tolist()
-        self.e2 = fr.e2.tolist()
-        self.den = [_cross(z[1], z[2]) for z in self.Zl]
+        self.of = V[T[:, 0]].ravel().tolist()  # frame origin, axes: [3 f + i]
+        self.e1f = fr.e1.ravel().tolist()
+        self.e2f = fr.e2.ravel().tolist()
+        z1, z2 = Z[:, 1], Z[:, 2]
+        self.den = (z1.real * z2.imag - z1.imag * z2.real).tolist()
+        self._index = None
+
+    def corner(self, f: int, c: int) -> complex:
+        """Corner ``c`` of face ``f`` in the face's coordinates."""
+        return self.Zf[3 * f + c]
+
+    def face_vector(self, f: int, k: int) -> complex:
+        """The unit field vector of family ``k`` in face ``f`` (face coordinates)."""
+        return self.fvf[2 * f + k]
+
+    @property
+    def index(self) -> TriangleIndex:
+        """Closest-point index of the mesh, built on first use and kept (every seeding step queries it)."""
+        if self._index is None:
+            self._index = TriangleIndex(self.V, self.T)
+        return self._index
 
     @staticmethod
     def _corner_vectors(V, T, U, W, fr):
@@ -151,36 +165,42 @@ class _Tracer:
     # -- scalar geometry
 
     def point3(self, f: int, z: complex) -> list:
-        o, a, b = self.o[f], self.e1[f], self.e2[f]
+        i = 3 * f
+        o, a, b = self.of, self.e1f, self.e2f
         x, y = z.real, z.imag
-        return [o[0] + x * a[0] + y * b[0], o[1] + x * a[1] + y * b[1], o[2] + x * a[2] + y * b[2]]
+        return [o[i] + x * a[i] + y * b[i], o[i + 1] + x * a[i + 1] + y * b[i + 1],
+                o[i + 2] + x * a[i + 2] + y * b[i + 2]]
 
     def vector3(self, f: int, d: complex) -> list:
-        a, b = self.e1[f], self.e2[f]
+        i = 3 * f
+        a, b = self.e1f, self.e2f
         x, y = d.real, d.imag
-        return [x * a[0] + y * b[0], x * a[1] + y * b[1], x * a[2] + y * b[2]]
+        return [x * a[i] + y * b[i], x * a[i + 1] + y * b[i + 1], x * a[i + 2] + y * b[i + 2]]
 
     def bary(self, f: int, z: complex):
-        Z = self.Zl[f]
+        i = 3 * f
+        z1, z2 = self.Zf[i + 1], self.Zf[i + 2]
         den = self.den[f]
-        l1 = _cross(z, Z[2]) / den
-        l2 = _cross(Z[1], z) / den
+        zr, zi = z.real, z.imag
+        l1 = (zr * z2.imag - zi * z2.real) / den
+        l2 = (z1.real * zi - z1.imag * zr) / den
         return 1.0 - l1 - l2, l1, l2
 
     def field(self, f: int, fam: int, z: complex, d: complex) -> complex:
         l0, l1, l2 = self.bary(f, z)
-        c = self.cv[f][fam]
-        v = l0 * c[0] + l1 * c[1] + l2 * c[2]
+        i = 6 * f + 3 * fam
+        c = self.cvf
+        v = l0 * c[i] + l1 * c[i + 1] + l2 * c[i + 2]
         a = abs(v)
         if a < 1e-9:
-            v = self.fv[f][fam]
+            v = self.fvf[2 * f + fam]
             a = 1.0
         if (v * d.conjugate()).real < 0:
             v = -v
         return v / a
 
     def family_in(self, f: int, d: complex) -> int:
-        u, w = self.fv[f]
+        u, w = self.fvf[2 * f], self.fvf[2 * f + 1]
         return 0 if abs((u * d.conjugate()).real) >= abs((w * d.conjugate()).real) else 1
 
     def near_singularity(self, f: int, p) -> bool:
@@ -214,16 +234,17 @@ class _Tracer:
 
     def cross_edge(self, f: int, j: int, s: float, d: complex):
         """Carry the edge point and the direction into the neighbour across edge ``j``; None at the boundary."""
-        g = self.nbr[f][j]
+        g = self.nbr[3 * f + j]
         if g < 0:
             return None
-        jg = self.nbe[f][j]
-        Zf, Zg = self.Zl[f], self.Zl[g]
-        ef = Zf[(j + 1) % 3] - Zf[j]  # a → b in f
-        eg = Zg[jg] - Zg[(jg + 1) % 3]  # a → b in g
+        jg = self.nbe[3 * f + j]
+        Z = self.Zf
+        ef = Z[3 * f + (j + 1) % 3] - Z[3 * f + j]  # a → b in f
+        za = Z[3 * g + (jg + 1) % 3]
+        eg = Z[3 * g + jg] - za  # a → b in g
         r = eg / ef
         r = r / abs(r)
-        zg = Zg[(jg + 1) % 3] + s * eg  # a + s (b − a)
+        zg = za + s * eg  # a + s (b − a)
         return g, zg, d * r
 
     # -- one streamline
@@ -243,7 +264,7 @@ class _Tracer:
         if self_distance > 0:
             own = _Grid(self_distance, parallel=math.cos(math.radians(20.0)))
             lag = int(math.ceil(3.0 * self_distance / step)) + 1
-        d = self.fv[f][fam] * sign
+        d = self.fvf[2 * f + fam] * sign
         start = self.point3(f, z)
         t0 = self.vector3(f, d)
         # a loop closes when the line comes back to its start within the closing radius, running the same way
@@ -255,7 +276,7 @@ class _Tracer:
         closed = False
         stuck = 0
         h = step
-        max_iter = int(8 * max_length / step) + 10 * len(self.Zl) ** 0.5 + 100
+        max_iter = int(8 * max_length / step) + 10 * self.m ** 0.5 + 100
         it = 0
         self.stop_reason = "length"
         if self.near_singularity(f, start):
@@ -282,8 +303,8 @@ class _Tracer:
                 moved = t * abs(delta)
                 length += moved
                 dd = delta / abs(delta) if abs(delta) > 0 else k1
-                Zf = self.Zl[f]
-                zedge = Zf[j] + s * (Zf[(j + 1) % 3] - Zf[j])
+                za = self.Zf[3 * f + j]
+                zedge = za + s * (self.Zf[3 * f + (j + 1) % 3] - za)
                 p = self.point3(f, zedge)
                 stuck = stuck + 1 if moved < 1e-9 * step else 0
                 nxt = self.cross_edge(f, j, s, dd)
@@ -363,8 +384,9 @@ def _mean_edge(V, T) -> float:
     return float(np.mean(np.linalg.norm(E, axis=1)))
 
 
-def _seed_locations(seeds, V, T):
-    """Seeds as points ``(s, 3)`` (projected to the mesh) or ``(faces, barycentric)`` → faces, barycentrics."""
+def _seed_locations(seeds, V, T, index=None):
+    """Seeds as points ``(s, 3)`` (projected to the mesh; ``index`` its closest-point index when built already) or
+    ``(faces, barycentric)`` → faces, barycentrics."""
     m = len(T)
     if isinstance(seeds, tuple) and len(seeds) == 2:
         faces = np.asarray(seeds[0])
@@ -385,7 +407,7 @@ def _seed_locations(seeds, V, T):
         raise InputError("seeds", "must be points (s, 3) or (faces, barycentric)") from None
     if not np.isfinite(P).all():
         raise InputError("seeds", "points have NaN or infinite coordinates")
-    res = closest_points(P, V, T)
+    res = closest_points(P, V, T) if index is None else index.query(P)
     return res.faces.astype(np.int64), res.barycentric
 
 
@@ -474,8 +496,7 @@ def trace_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray
     tr = _Tracer(V, T, U, W, sing, radius)
     out = []
     for f, b in zip(faces.tolist(), B.tolist()):
-        Z = tr.Zl[f]
-        z = b[1] * Z[1] + b[2] * Z[2]
+        z = b[1] * tr.corner(f, 1) + b[2] * tr.corner(f, 2)
         fwd, closed = tr.trace(f, z, fam, 1.0, step, max_length)
         line = fwd
         if both_directions and not closed:
@@ -514,16 +535,19 @@ class _Grid:
     def near(self, p, r: float, t=None, exclude: int = -2) -> bool:
         """Is a stored point closer than ``r`` to ``p`` (among those whose tangent is parallel to ``t``, not
         belonging to line ``exclude``)?"""
-        kx, ky, kz = self.key(p)
         r2 = r * r
-        reach = int(math.ceil(r / self.cell))
         if t is not None:
             tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]) or 1.0
             t = (t[0] / tn, t[1] / tn, t[2] / tn)
-        for i in range(kx - reach, kx + reach + 1):
-            for j in range(ky - reach, ky + reach + 1):
-                for k in range(kz - reach, kz + reach + 1):
-                    for q, tq, owner in self.cells.get((i, j, k), ()):
+        # only the cells that meet the box [p - r, p + r] (widened a hair against rounding) can hold a point
+        # closer than r: 1-2 cells per axis instead of 3
+        c, rr = self.cell, r * (1.0 + 1e-9)
+        x, y, z = p[0], p[1], p[2]
+        cells = self.cells
+        for i in range(math.floor((x - rr) / c), math.floor((x + rr) / c) + 1):
+            for j in range(math.floor((y - rr) / c), math.floor((y + rr) / c) + 1):
+                for k in range(math.floor((z - rr) / c), math.floor((z + rr) / c) + 1):
+                    for q, tq, owner in cells.get((i, j, k), ()):
                         if owner == exclude:
                             continue
                         dx, dy, dz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
@@ -625,7 +649,7 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     max_length = 4.0 * float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) + 10 * sep
     # a line keeps its distance from lines within 45° of its direction: its own family (the other one is at 90°),
     # also where lines of one family converge at an angle (into an umbilic)
-    grid = _Grid(sep, parallel=math.cos(math.radians(45.0)))
+    grid = _Grid(ratio * sep, parallel=math.cos(math.radians(45.0)))  # cells of the test distance: few points to scan
     sd = _Seeding(tr, grid, sep, ratio * sep, step, max_length, labelled, both, min_length)
     lines, reasons, line_fam = _seed_lines(sd, _first_seeds(tr, fr, seeds, fam), _cover_faces(fr, sep), fam)
     if extend_ratio > 0 and lines:
@@ -683,9 +707,9 @@ def _first_seeds(tr: _Tracer, fr, seeds, fam: int) -> list:
     """The seeds given (points or faces and barycentric coordinates), or the face nearest the mesh's centroid."""
     if seeds is None:
         f0 = int(np.argmin(np.linalg.norm(fr.centroid - fr.centroid.mean(axis=0), axis=1)))
-        return [(f0, (tr.Zl[f0][1] + tr.Zl[f0][2]) / 3.0, fam)]
-    faces, B = _seed_locations(seeds, tr.V, tr.T)
-    return [(f, b[1] * tr.Zl[f][1] + b[2] * tr.Zl[f][2], fam) for f, b in zip(faces.tolist(), B.tolist())]
+        return [(f0, (tr.corner(f0, 1) + tr.corner(f0, 2)) / 3.0, fam)]
+    faces, B = _seed_locations(seeds, tr.V, tr.T, tr.index)
+    return [(f, b[1] * tr.corner(f, 1) + b[2] * tr.corner(f, 2), fam) for f, b in zip(faces.tolist(), B.tolist())]
 
 
 def _cover_faces(fr, sep: float) -> list:
@@ -720,14 +744,14 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
             while cover_pos < len(cover):
                 f = cover[cover_pos]
                 cover_pos += 1
-                if not grid.near(tr.fr.centroid[f].tolist(), sep, tr.vector3(f, tr.fv[f][fam])):
-                    queue.append((f, (tr.Zl[f][1] + tr.Zl[f][2]) / 3.0, fam))
+                if not grid.near(tr.fr.centroid[f].tolist(), sep, tr.vector3(f, tr.face_vector(f, fam))):
+                    queue.append((f, (tr.corner(f, 1) + tr.corner(f, 2)) / 3.0, fam))
                     break
             if not queue:
                 break
         f, z, k = queue.pop(0)
         p0 = tr.point3(f, z)
-        if grid.near(p0, sep * 0.999, tr.vector3(f, tr.fv[f][k])) or tr.near_singularity(f, p0):
+        if grid.near(p0, sep * 0.999, tr.vector3(f, tr.face_vector(f, k))) or tr.near_singularity(f, p0):
             continue
         line, why = _trace_both_ways(sd, f, z, k, stop)
         if len(line) < 2:
@@ -813,7 +837,7 @@ def _extend_ends(tr, lines, reasons, line_fam, grid, d_ext, step, max_length, la
             if abs(dz) == 0:
                 continue
             kk = line_fam[i] if labelled else tr.family_in(lf, dz)
-            sgn = 1.0 if (tr.fv[lf][kk] * dz.conjugate()).real >= 0 else -1.0
+            sgn = 1.0 if (tr.face_vector(lf, kk) * dz.conjugate()).real >= 0 else -1.0
 
             stop = _SeparationTest(grid, d_ext, exclude=2 * i + end)
             ext, _ = tr.trace(lf, lz, kk, sgn, step, max_length, stop=stop, closing=False, self_distance=d_ext,
@@ -853,11 +877,10 @@ def _add_line(grid, arr, i, reach):
 
 def _locate_on_line(tr: _Tracer, P: np.ndarray):
     """Faces and face coordinates of points lying on the mesh (closest-point query)."""
-    res = closest_points(P, tr.V, tr.T)
+    res = tr.index.query(P)
     out = []
     for f, b in zip(res.faces.tolist(), res.barycentric.tolist()):
-        Z = tr.Zl[f]
-        out.append((f, b[1] * Z[1] + b[2] * Z[2]))
+        out.append((f, b[1] * tr.corner(f, 1) + b[2] * tr.corner(f, 2)))
     return out
 
 

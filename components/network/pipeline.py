@@ -44,6 +44,7 @@ import numpy as np
 
 from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_mesh
+from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core import progress
 from components.core.errors import InputError, MeshError
@@ -296,6 +297,7 @@ def _fields_candidate(V, T, hn, why: str) -> _Cand | None:
                  w + list(fc.warnings))
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: float = 0.0,
                        umbilic_threshold: float = 0.05, boundary_cells: str = "extend", closeness_weight: float = 1.0,
                        time_budget: float = 60.0, tracer: Callable | None = None,

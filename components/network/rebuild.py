@@ -48,6 +48,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_number
 from components.core.conformal import check_disk, disk_map, lscm
 from components.core.errors import MeshError
@@ -774,6 +775,7 @@ def _boundary_edges(faces):
 # ---- the rebuild
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap: float = 1.0,
                          merge: float = 0.1, max_face_size: int = 6, corner_angle: float = 35.0,
                          plane: str = "lscm", boundary_cells: str = "trim",

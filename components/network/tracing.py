@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
+from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_int, check_mesh, check_number
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
@@ -259,6 +260,7 @@ def _cut_umbilic(V, T, lines, umbilic, min_length):
     return out, ncut
 
 
+@single_blas_thread()  # sparse factorizations: see components.core.blas
 def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_threshold: float = 0.05,
                       radius: int = 2, tracer: Callable | None = None, umbilic: str = "skip") -> Network:
     """Both families of principal curvature lines at an even spacing, umbilic regions skipped (or filled).

@@ -212,3 +212,33 @@ def test_bad_inputs(nonmanifold_fan, hypar_grid):
     Tb = np.array([[0, 1, 2], [0, 3, 4]])
     with pytest.raises(MeshError, match="^mesh: .*non-manifold"):
         isotropic_remesh(Vb, Tb, 0.3)
+
+
+def test_topology_sorts_match_stable_argsort():
+    """The remesher's linear-time sorts (issue #21) give exactly ``np.argsort(kind="stable")``: on both paths (packed
+    keys and the counting sort used when the keys do not fit in 62 bits), with ties, and for half-edge keys."""
+    from components.fields.remesh import _BIG, _group_order, _pair_order
+
+    rng = np.random.default_rng(3)
+    for n in (1, 7, 1000):
+        x = rng.integers(0, n, 5000)
+        assert np.array_equal(_group_order(x, n), np.argsort(x, kind="stable"))
+        lo, hi = np.sort(rng.integers(0, n, (2, 5000)), axis=0)
+        assert np.array_equal(_pair_order(lo, hi, n), np.argsort(lo * _BIG + hi, kind="stable"))
+    big = 1 << 50  # too wide to pack with the positions: the counting-sort path
+    x = rng.integers(0, 300, 4000) * (1 << 40)
+    assert np.array_equal(_group_order(x % 300, big), np.argsort(x % 300, kind="stable"))
+    lo, hi = np.sort(rng.integers(0, 300, (2, 4000)), axis=0)
+    assert np.array_equal(_pair_order(lo, hi, 1 << 30), np.argsort(lo * _BIG + hi, kind="stable"))
+    assert len(_group_order(np.zeros(0, np.int64), 5)) == 0
+
+
+def test_remesh_same_at_every_scale(hypar_grid):
+    """Remeshing a scaled or far-placed copy gives the same mesh, scaled or moved (no absolute epsilon)."""
+    V, F = hypar_grid
+    T, _ = triangulate(F)
+    V2, T2 = isotropic_remesh(V, T, 0.08, iterations=4)
+    for s, off in ((1e-3, 0.0), (1e3, 0.0), (1.0, 5e6)):
+        W2, S2 = isotropic_remesh(V * s + off, T, 0.08 * s, iterations=4)
+        assert np.array_equal(S2, T2)
+        assert np.abs((W2 - off) / s - V2).max() < 1e-6 * np.ptp(V, axis=0).max()
