@@ -18,7 +18,7 @@ from components.core.mesh import Corners, face_corners, face_sizes
 from components.core.proximity import PolylineIndex
 from components.metrics.health import face_health
 
-__all__ = ["FaceFrames", "corner_turns", "Stars", "vertex_stars", "LoopIndex", "crossing_pairs"]
+__all__ = ["FaceFrames", "corner_turns", "Stars", "vertex_stars", "LoopIndex", "crossing_pairs", "CrossingWatch"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -203,7 +203,8 @@ def crossing_pairs(X: np.ndarray, F: np.ndarray, sizes: np.ndarray | None = None
     Broad phase here, on the faces' bounding spheres (centre: the mean corner, radius: the farthest corner): on a
     healthy mesh no two faces without a common vertex have overlapping spheres, so the usual cost is one KD-tree of
     the face centres. The exact test (triangle-triangle, Möller 1997) is
-    :func:`components.metrics.health.face_health`'s, run on the few candidate faces only.
+    :func:`components.metrics.health.face_health`'s, run on the few candidate faces only. For one mesh tested
+    again and again as it moves, :class:`CrossingWatch` gives the same pairs without a KD-tree per test.
 
     Example
     -------
@@ -215,29 +216,80 @@ def crossing_pairs(X: np.ndarray, F: np.ndarray, sizes: np.ndarray | None = None
     >>> crossing_pairs(V, F).tolist()
     [[0, 3], [1, 3]]
     """
-    F = np.asarray(F, dtype=np.int64)
-    m, k = F.shape
-    empty = np.zeros((0, 2), dtype=np.int64)
-    if m < 2:
-        return empty
-    if sizes is None:
-        sizes = face_sizes(F)
-    valid = np.arange(k)[None, :] < sizes[:, None]
-    P = X[F]
-    G = (P * valid[..., None]).sum(axis=1) / sizes[:, None]
-    R = np.sqrt(np.where(valid, dot(P - G[:, None, :], P - G[:, None, :]), 0.0).max(axis=1))
-    pairs = _sphere_pairs(G, R)
-    if len(pairs):
-        apart = ~(F[pairs[:, 0]][:, :, None] == F[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
-        pairs = pairs[apart]
-    if len(pairs) == 0:
-        return empty
-    faces = np.unique(pairs)
-    sub = face_health(X, F[faces]).intersecting_pairs
-    if len(sub) == 0:
-        return empty
-    out = np.sort(faces[sub], axis=1)
-    return out[np.lexsort((out[:, 1], out[:, 0]))]
+    return CrossingWatch(F, sizes).pairs(X)
+
+
+class CrossingWatch:
+    """:func:`crossing_pairs` of one mesh whose vertices move from call to call, with the broad phase kept (a
+    Verlet list): a KD-tree query at a reference state lists the pairs of faces sharing no vertex whose bounding
+    spheres come within ``2 s`` of each other (``s``: a quarter of the median sphere radius); while no vertex has
+    moved more than ``s`` from that state, every point of a face stays within its reference sphere grown by
+    ``s``, so only the listed pairs can overlap, and only they are tested (their spheres at the new positions,
+    then the exact test). A larger move takes a new reference state. The pairs are the same as
+    :func:`crossing_pairs` computed from scratch.
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(4, 1, 4.0, 1.0)  # unit squares: no two without a common corner come near
+    >>> watch = CrossingWatch(F)
+    >>> watch.pairs(V).tolist(), len(watch.near)
+    ([], 0)
+    >>> V[[4, 9], 0] = -2.0  # the last quad folded back across the first two
+    >>> watch.pairs(V).tolist()
+    [[0, 3], [1, 3]]
+    """
+
+    SKIN = 0.25  # × the median sphere radius at the reference state
+
+    def __init__(self, F: np.ndarray, sizes: np.ndarray | None = None):
+        self.F = np.asarray(F, dtype=np.int64)
+        self.sizes = face_sizes(self.F) if sizes is None else np.asarray(sizes)
+        self.valid = np.arange(self.F.shape[1])[None, :] < self.sizes[:, None]
+        self.ref = None  # positions of the reference state
+        self.skin = 0.0
+        self.near = np.zeros((0, 2), dtype=np.int64)  # face pairs sharing no vertex, spheres within 2 skin
+
+    def _spheres(self, X, faces=slice(None)):
+        """Centres and radii of the bounding spheres of ``faces`` (all by default) at ``X``."""
+        P, valid, sizes = X[self.F[faces]], self.valid[faces], self.sizes[faces]
+        G = (P * valid[..., None]).sum(axis=1) / sizes[:, None]
+        R = np.sqrt(np.where(valid, dot(P - G[:, None, :], P - G[:, None, :]), 0.0).max(axis=1))
+        return G, R
+
+    def _apart(self, pairs):
+        if len(pairs) == 0:
+            return pairs
+        F = self.F
+        return pairs[~(F[pairs[:, 0]][:, :, None] == F[pairs[:, 1]][:, None, :]).any(axis=(1, 2))]
+
+    def pairs(self, X: np.ndarray) -> np.ndarray:
+        """Pairs ``(p, 2)`` (``a < b``, sorted) of faces sharing no vertex that cross or overlap at ``X``."""
+        empty = np.zeros((0, 2), dtype=np.int64)
+        if len(self.F) < 2:
+            return empty
+        moved = float(np.sqrt(np.max(dot(X - self.ref, X - self.ref)))) if (
+            self.ref is not None and self.ref.shape == X.shape) else np.inf
+        if not moved <= self.skin:
+            G, R = self._spheres(X)
+            self.skin = self.SKIN * float(np.median(R))
+            self.near = self._apart(_sphere_pairs(G, R + self.skin))
+            self.ref = np.array(X, dtype=np.float64, copy=True)
+        pairs = self.near
+        if len(pairs) == 0:
+            return empty
+        faces, inv = np.unique(pairs, return_inverse=True)
+        G, R = self._spheres(X, faces)
+        i, j = inv.reshape(-1, 2).T
+        pairs = pairs[norm(G[i] - G[j]) < R[i] + R[j]]
+        if len(pairs) == 0:
+            return empty
+        faces = np.unique(pairs)
+        sub = face_health(X, self.F[faces]).intersecting_pairs
+        if len(sub) == 0:
+            return empty
+        out = np.sort(faces[sub], axis=1)
+        return out[np.lexsort((out[:, 1], out[:, 0]))]
 
 
 def _sphere_pairs(G, R) -> np.ndarray:

@@ -158,7 +158,7 @@ def panel_guard(prob) -> PanelGuard:
     fold_min = np.full(len(fold_faces), -math.cos(open_min))
     fold_act = np.full(len(fold_faces), -math.cos(open_min + _FOLD_MARGIN[0]))
     fold_tgt = np.full(len(fold_faces), -math.cos(open_min + _FOLD_MARGIN[1]))
-    cross_in = crossing_pairs(prob.X0, F, prob.sizes)
+    cross_in = _crossings(prob, prob.X0)
     on_c = guarded
     return PanelGuard(
         quad_like=quad_like, guarded=guarded, turn_in=turn_in, angle_in=angle_in,
@@ -265,9 +265,14 @@ class Health(NamedTuple):
     failed: tuple
 
 
+def _crossings(prob, X) -> np.ndarray:
+    """:func:`~components.planarize.geometry.crossing_pairs` at ``X`` (through the problem's watch, when it has one)."""
+    return crossing_pairs(X, prob.F, prob.sizes) if prob.crossings is None else prob.crossings.pairs(X)
+
+
 def new_crossings(prob, guard: PanelGuard, X) -> bool:
     """Whether a face at ``X`` crosses a face it shares no vertex with (and did not cross in the input)."""
-    pairs = crossing_pairs(X, prob.F, prob.sizes)
+    pairs = _crossings(prob, X)
     return bool(len(pairs)) and not np.isin(pairs[:, 0] * len(prob.F) + pairs[:, 1], guard.crossings_in).all()
 
 

@@ -18,7 +18,12 @@ the tolerance and the objective decreases: this walks along the planar meshes to
 closest fit / fairest net; a step is only taken while the quadratic model, solved with the previous iteration's
 factorization, promises at least 1 % of the objective and as much as moving every vertex 1 % of an edge),
 *polish* (``Δf`` steps back below the tolerance). Faces above ``relax ×`` the tolerance are driven to that value,
-not to 0, so a loose tolerance costs little displacement.
+not to 0, so a loose tolerance costs little displacement. An accepted step still above the tolerance gets up to two
+chord corrections (the feasibility step of the new residual solved with the same factorization): the tolerance is
+usually met one iteration, and one factorization, earlier. Without a reference the restore phase corrects in the
+plain metric: the closeness to the start's tangent planes made in-surface moves the cheap ones, and the correction
+sheared the net (a ±3 % noisy 60² grid: worst corner 87° → 62° after restore, 75° at the end, 10 iterations; now
+70° after restore, 84° at the end, 4 iterations).
 
 Panel health ("fabricable or it says why"): the solver cannot collapse, pinch or fold a panel. Corners keep at least
 20° and half the input's worst, edges 0.2 × the median edge and half their input length, faces 0.1 × the median
@@ -127,7 +132,8 @@ def planarize_mesh(
     closeness_weight : float
         Weight of the pull toward the reference: distance to its tangent plane at the closest point, costing
         ``20 × closeness_weight`` against a displacement of the same length (in mean edge lengths). Without a
-        reference, moving along the start normals costs ``1 + closeness_weight`` times moving tangentially.
+        reference, moving along the start normals costs ``1 + closeness_weight`` times moving tangentially (in the
+        optimize phase; the restore phase corrects in the plain metric).
     start_weight : float
         Weight of the pull toward the start positions (all three directions).
     fairness_weight : float

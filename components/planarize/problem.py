@@ -30,7 +30,7 @@ from components.core.mesh import (Corners, boundary_loops, edge_topology, face_c
                                   triangulate)
 from components.core.proximity import TriangleIndex
 from components.planarize import goals
-from components.planarize.geometry import FaceFrames, LoopIndex, Stars, vertex_stars
+from components.planarize.geometry import CrossingWatch, FaceFrames, LoopIndex, Stars, vertex_stars
 from components.planarize.rows import stack, tolerance_of
 
 __all__ = ["BOUNDARY_MODES", "FAIRNESS_MODES", "CONICAL_TOLERANCE", "OPT_ITERATIONS", "Options", "checked_options",
@@ -195,6 +195,7 @@ class Problem:
     fair_major: np.ndarray | None  # (n, 3) its diagonal majorizer
     inner_faces: np.ndarray  # (i, 2) the two faces of every interior edge (the fold guard's hinges)
     warnings: list = field(default_factory=list)
+    crossings: CrossingWatch | None = None  # the faces crossing faces they share no vertex with, as the mesh moves
     _query: tuple = (None, None)  # the latest closest-point query (positions, result): trial → accepted → next step
 
     def reference_query(self, X):
@@ -260,7 +261,7 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
         ngons=np.nonzero(sizes > 4)[0], stars=stars, conical_on=conical_on,
         alpha=(_NORMAL_STIFFNESS if reference is not None else 1.0) * opts.closeness_weight,
         w_disp=1.0 + opts.start_weight, fair_op=fair_op, fair_major=fair_major,
-        inner_faces=topo.EF[topo.count == 2], warnings=warnings)
+        inner_faces=topo.EF[topo.count == 2], warnings=warnings, crossings=CrossingWatch(F, sizes))
 
 
 # ----------------------------------------------------------------------------------------------

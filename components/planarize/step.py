@@ -12,6 +12,11 @@ within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corne
 toward their bounds and solves again (later in the iteration: takes a shorter healthy step first); a trial that
 only crosses faces is shortened.
 
+An accepted trial still above the tolerance gets up to ``_CHORDS`` chord corrections: the feasibility step of its
+residual solved with the same factorization (one back-substitution each, no new factor), kept while healthy and
+lowering the planarity score (and, in the optimize phase, keeping the soft objective under the current one; not in
+the optimize phase with a reference, where the objective costs a closest-point query).
+
 Example
 -------
 A planar grid needs no correction: the feasibility step is zero.
@@ -51,6 +56,7 @@ _RESOLVE_FIRST = 2  # attempts that solve again at once when a trial is unhealth
 _RELEASES = 3  # re-solves per iteration after releasing guard rows that hold their item down
 _BACKTRACKS = 10  # step halvings per solve
 _MIN_T = 1.0 / 64  # optimize phase: the smallest fraction of the optimality step tried
+_CHORDS = 2  # chord corrections (same factorization) of an accepted step still above the tolerance
 
 
 class Factorization(NamedTuple):
@@ -195,6 +201,11 @@ def _line_search(prob, guard, cur, d, t, optimize, f_cur, guard_sel, sticky, att
         elif trial.score < cur.score or (trial.score <= cur.score and trial.excess < cur.excess):
             accepted = trial
         if accepted is not None:
+            # chord corrections first: when one is taken (crossing-checked itself), the trial it corrects need not be
+            corrected, f_chord = _chord(prob, guard, d.fact, accepted, optimize, f_cur, f_new)
+            if corrected is not accepted:
+                sticky |= pending
+                return corrected, False, t, beta, f_chord, failed
             accepted = crossing_checked(prob, guard, accepted)  # the costly test, on the one trial to take
             if accepted.healthy:
                 sticky |= pending
@@ -212,6 +223,41 @@ def _line_search(prob, guard, cur, d, t, optimize, f_cur, guard_sel, sticky, att
         sticky |= pending
         return None, True, t, beta, f_new, failed
     return None, False, t, beta, f_new, failed
+
+
+def _chord(prob, guard, fact: Factorization, st: State, optimize, f_cur, f_new):
+    """Up to ``_CHORDS`` chord corrections of a trial ``st`` the line search would take (healthy but not yet tested
+    for crossings) that is still above the tolerance: the feasibility step of the residual at ``st`` solved with
+    this iteration's factorization (no new factor; the guard rows keep their items where they are to first order).
+    A correction is kept while it is healthy (crossings included) and lowers the planarity score (in the optimize
+    phase also keeps the soft objective under ``f_cur``): it removes most of the Gauss-Newton step's quadratic
+    error, so the tolerance is often met without another iteration.
+
+    Returns ``(state, f_new)``: ``st`` itself (still to be tested for crossings) when no correction was kept."""
+    if fact is None:  # a search along given directions
+        return st, f_new
+    if optimize and prob.XR is not None:  # each correction would cost a closest-point query on the reference for its
+        return st, f_new  # objective: more than the factorizations it saves (60² noisy grid on itself: 6.8 → 8.7 s)
+    for _ in range(_CHORDS):
+        if st.score <= 1.0:
+            break
+        rr = hard_residual(prob, st.X, fact.J.shape[0], fact.n_hard)
+        dx = (fact.JG.T @ fact.lu.solve(-rr)).reshape(-1, 3)
+        if not np.all(np.isfinite(dx)):
+            break
+        Xt, tt = prob.project_slide(st.X + dx)
+        trial = evaluate(prob, guard, Xt, tt, crossings=False)
+        if not (trial.healthy and trial.score < st.score):
+            break
+        f_t = soft_terms(prob, trial.X, value_only=True) if optimize else f_new
+        if optimize and not f_t < f_cur:
+            break
+        trial = crossing_checked(prob, guard, trial)
+        if not trial.healthy:
+            break
+        log.debug("   chord correction: score %.3g -> %.3g", st.score, trial.score)
+        st, f_new = trial, f_t
+    return st, f_new
 
 
 def predicted_gain(prob, X, soft, fact: Factorization) -> tuple[float, float]:
