@@ -616,13 +616,17 @@ def _e(x) -> str:
 
 
 def _fmt(x, digits: int = 3) -> str:
+    return _e(x) if isinstance(x, str) else format_number(x, digits)
+
+
+def format_number(x, digits: int = 3) -> str:
+    """A number for a table cell or a tooltip: "–" for none, integers with separators, else ``digits`` significant
+    digits (the report's and the study report's cells)."""
     if x is None:
         return "–"
-    if isinstance(x, str):
-        return _e(x)
     x = float(x)
     if not math.isfinite(x):
-        return _e(x)
+        return str(x)
     if x == 0:
         return "0"
     if x.is_integer() and abs(x) < 1e9:

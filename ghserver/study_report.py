@@ -16,7 +16,7 @@ import json
 import math
 from pathlib import Path
 
-from ghserver.report import status_text
+from ghserver.report import format_number, status_text
 
 __all__ = ["write_report", "scatter_svg", "CHARTS"]
 
@@ -61,21 +61,10 @@ def _e(x) -> str:
 
 
 def _num(x, digits: int = 3) -> str:
-    """A number for a table cell or a tooltip: "–" for none, integers with separators, else 3 significant digits."""
-    if x is None:
-        return "–"
+    """:func:`ghserver.report.format_number`, with yes/no for flags."""
     if isinstance(x, bool):
         return "yes" if x else "no"
-    x = float(x)
-    if not math.isfinite(x):
-        return str(x)
-    if x == 0:
-        return "0"
-    if x.is_integer() and abs(x) < 1e9:
-        return f"{int(x):,}"
-    if 1e-3 <= abs(x) < 1e5:
-        return f"{x:.{digits}g}"
-    return f"{x:.{digits - 1}e}"
+    return format_number(x, digits)
 
 
 # ----------------------------------------------------------------------------------------------

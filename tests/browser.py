@@ -139,45 +139,38 @@ class Page:
         self.next_id += 1
         mid = self.next_id
         self.ws.send(json.dumps({"id": mid, "method": method, "params": params}))
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            msg = self.ws.recv(timeout=max(end - time.monotonic(), 0.01))
-            if msg is None:
-                break
-            data = json.loads(msg)
-            if data.get("id") == mid:
-                if "error" in data:
-                    raise RuntimeError(f"{method}: {data['error']}")
-                return data.get("result", {})
-            if "method" in data:
-                self.events.append(data)
+        data = self._pump(timeout, lambda d: d.get("id") == mid)
+        if data is not None:
+            if "error" in data:
+                raise RuntimeError(f"{method}: {data['error']}")
+            return data.get("result", {})
         raise TimeoutError(f"no answer to {method} in {timeout} s")
 
     def wait_for(self, method: str, timeout: float = 30.0) -> dict:
         for e in self.events:
             if e["method"] == method:
                 return e
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            msg = self.ws.recv(timeout=max(end - time.monotonic(), 0.01))
-            if msg is None:
-                break
-            data = json.loads(msg)
-            if "method" in data:
-                self.events.append(data)
-                if data["method"] == method:
-                    return data
-        raise TimeoutError(f"no {method} event in {timeout} s")
+        found = self._pump(timeout, lambda data: data.get("method") == method)
+        if found is None:
+            raise TimeoutError(f"no {method} event in {timeout} s")
+        return found
 
     def drain(self, seconds: float) -> None:
+        self._pump(seconds, lambda data: False)
+
+    def _pump(self, seconds: float, stop):
+        """Read messages for up to ``seconds``, keeping events; the first message ``stop`` accepts is returned."""
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             msg = self.ws.recv(timeout=max(end - time.monotonic(), 0.01))
             if msg is None:
-                return
+                return None
             data = json.loads(msg)
             if "method" in data:
                 self.events.append(data)
+            if stop(data):
+                return data
+        return None
 
 
 class Browser:
@@ -238,21 +231,28 @@ def load(base: str, url: str) -> tuple[Page, list[str], str]:
     page.call("Page.navigate", url=url)
     page.wait_for("Page.loadEventFired", timeout=60)
     page.drain(0.5)
-    problems = []
-    for e in page.events:
+    return page, event_problems(page.events), evaluate(page, STATE_JS)
+
+
+def event_problems(events: list[dict], also_log: str | None = None) -> list[str]:
+    """The errors among DevTools events: uncaught exceptions, console errors and asserts, error log entries (and log
+    entries containing ``also_log``), failed loads and HTTP errors."""
+    out = []
+    for e in events:
         m, p = e["method"], e.get("params", {})
         if m == "Runtime.exceptionThrown":
-            problems.append(f"uncaught: {p['exceptionDetails'].get('text')} "
-                            f"{p['exceptionDetails'].get('exception', {}).get('description', '')}")
+            out.append(f"uncaught: {p['exceptionDetails'].get('text')} "
+                       f"{p['exceptionDetails'].get('exception', {}).get('description', '')}")
         elif m == "Runtime.consoleAPICalled" and p.get("type") in ("error", "assert"):
-            problems.append(f"console.{p['type']}: {[a.get('value') for a in p.get('args', [])]}")
-        elif m == "Log.entryAdded" and p["entry"].get("level") == "error":
-            problems.append(f"log: {p['entry'].get('text')} {p['entry'].get('url', '')}")
+            out.append(f"console.{p['type']}: {[a.get('value') for a in p.get('args', [])]}")
+        elif m == "Log.entryAdded" and (p["entry"].get("level") == "error"
+                                        or (also_log is not None and also_log in p["entry"].get("text", ""))):
+            out.append(f"log: {p['entry'].get('text')} {p['entry'].get('url', '')}")
         elif m == "Network.loadingFailed" and not p.get("canceled"):
-            problems.append(f"failed to load: {p.get('errorText')} (request {p.get('requestId')})")
+            out.append(f"failed to load: {p.get('errorText')} (request {p.get('requestId')})")
         elif m == "Network.responseReceived" and p["response"].get("status", 200) >= 400:
-            problems.append(f"HTTP {p['response']['status']}: {p['response'].get('url')}")
-    return page, problems, evaluate(page, STATE_JS)
+            out.append(f"HTTP {p['response']['status']}: {p['response'].get('url')}")
+    return out
 
 
 def evaluate(page: Page, expression: str):

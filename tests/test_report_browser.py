@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from ghserver import report as rp
-from tests.browser import CHROMIUM, SKIP_REASON, Browser, evaluate, load, screenshot
+from tests.browser import CHROMIUM, SKIP_REASON, Browser, evaluate, event_problems, load, screenshot
 
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason=SKIP_REASON)
 
@@ -134,23 +134,8 @@ def rp_max_live(page) -> int:
 
 
 def _problems(page) -> list[str]:
-    """Errors among the page's events so far (as ``load`` collects them while loading)."""
-    out = []
-    for e in page.events:
-        m, p = e["method"], e.get("params", {})
-        if m == "Runtime.exceptionThrown":
-            out.append(f"uncaught: {p['exceptionDetails'].get('text')} "
-                       f"{p['exceptionDetails'].get('exception', {}).get('description', '')}")
-        elif m == "Runtime.consoleAPICalled" and p.get("type") in ("error", "assert"):
-            out.append(f"console.{p['type']}: {[a.get('value') for a in p.get('args', [])]}")
-        elif m == "Log.entryAdded" and (p["entry"].get("level") == "error"
-                                        or "WebGL contexts" in p["entry"].get("text", "")):
-            out.append(f"log: {p['entry'].get('text')} {p['entry'].get('url', '')}")
-        elif m == "Network.loadingFailed" and not p.get("canceled"):
-            out.append(f"failed to load: {p.get('errorText')} (request {p.get('requestId')})")
-        elif m == "Network.responseReceived" and p["response"].get("status", 200) >= 400:
-            out.append(f"HTTP {p['response']['status']}: {p['response'].get('url')}")
-    return out
+    """Errors among the page's events so far (as ``load`` collects them), and Chromium's WebGL-context warnings."""
+    return event_problems(page.events, also_log="WebGL contexts")
 
 
 def _start(page, vid: str, timeout: float = 60.0) -> None:
