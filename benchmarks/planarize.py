@@ -23,7 +23,17 @@ loaded from a checkout given by ``--geometrylab PATH`` or the ``GEOMETRYLAB`` en
 note when absent; its code is not part of this project): as shipped (boundary gliding on) and with gliding off,
 one ``optimize()`` iteration at a time until its max planarity is under 1e-4 or ``--peer-budget`` seconds.
 
-Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k] [--noisy-only] [--geometrylab PATH]``
+Candidates against their surface (issue #21): the planarizer's input in ``pq_from_conjugate_field`` — the repaired
+candidate of ``components.fields.candidate.candidate_mesh`` on benchmarks/fields.py's patch at 2.5 × its mean edge —
+planarized with the pipeline's options (reference = the patch, tolerance 1e-4, sliding boundary, closeness weight
+10, time budget 30 s; ``--candidate-budget`` on a loaded machine), plain, with every coordinate × 1000 and moved by
+5e6 (the results must agree up to scale). The candidates are built here (``--candidates 20000 200000``: surface
+sizes in triangles; the 200k one takes minutes) or read from saved ``.npz`` files (``--candidate-npz PATH ...``,
+keys ``V``, ``T``, ``CV``, ``CF``). Each run is a child process (CPU and wall seconds, iterations / factorizations,
+peak resident size).
+
+Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k] [--noisy-only] [--geometrylab PATH]
+[--candidates N ...] [--candidate-npz PATH ...] [--candidate-budget S] [--candidates-only]``
 """
 from __future__ import annotations
 
@@ -280,6 +290,96 @@ def bench_noisy(args):
                            f"{r['rss']:,.0f} MB{'; ' + ', '.join(r['notes']) if r['notes'] else ''}")
 
 
+# ----------------------------------------------------------------------------------------------
+# candidates of the conjugate pipeline against their design surface (issue #21)
+
+
+def _bench_fields():
+    """benchmarks/fields.py as a module (its ``patch``: the pipeline benchmark's surface)."""
+    spec = importlib.util.spec_from_file_location("bench_fields", ROOT / "benchmarks" / "fields.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _mean_edge_length(V, F):
+    E = edge_topology(F).E
+    return float(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1).mean())
+
+
+def make_candidate(n: int, path: str):
+    """The planarizer's input in ``pq_from_conjugate_field`` on benchmarks/fields.py's ``patch(n)``: the repaired
+    candidate of :func:`components.fields.candidate.candidate_mesh` at 2.5 × the surface's mean edge, saved with
+    the surface to ``path`` (keys ``V``, ``T``, ``CV``, ``CF``, as /tmp/in/patch*.npz of the #21 helpers)."""
+    from components.fields.candidate import candidate_mesh
+
+    V, T = _bench_fields().patch(n)
+    t = time.perf_counter()
+    c = candidate_mesh((V, T), 2.5 * _mean_edge_length(V, T), repair=True)
+    np.savez(path, V=V, T=T, CV=c.V, CF=c.F)
+    return time.perf_counter() - t
+
+
+def child_candidate(path: str, variant: str, budget: str = "30"):
+    """One planarization of a saved candidate in this (child) process with the pipeline's options (``_planarized``
+    of components/fields/pipeline.py): a JSON line. ``variant``: ``plain``, ``x1000`` (every coordinate × 1000) or
+    ``moved`` (+5e6 in x and z, −3e6 in y): the results must be the same up to scale."""
+    from components.planarize import step
+
+    count = [0]
+    factor = step.factor_spd
+
+    def counted(S):
+        count[0] += 1
+        return factor(S)
+
+    step.factor_spd = counted
+    d = np.load(path)
+    V, T, CV, CF = d["V"], d["T"], d["CV"], d["CF"]
+    s, off = (1000.0, 0.0) if variant == "x1000" else (1.0, np.array([5e6, -3e6, 5e6]) if variant == "moved" else 0.0)
+    V, CV = V * s + off, CV * s + off
+    mel = _mean_edge_length(CV, CF)
+    t, c = time.perf_counter(), time.process_time()
+    res = planarize_mesh(CV, CF, reference=(V, T), tolerance=1e-4, time_budget=float(budget), boundary="slide",
+                         closeness_weight=10.0, mesh_name="candidate")
+    dt, cpu = time.perf_counter() - t, time.process_time() - c
+    drift = np.linalg.norm(res.mesh[0] - CV, axis=1) / mel
+    print(json.dumps(dict(
+        dt=dt, cpu=cpu, it=res.iterations, facts=count[0], maxp=res.max_planarity, meanp=res.mean_planarity,
+        conv=bool(res.converged), healthy=bool(res.healthy), coverage=res.coverage,
+        close_mean=res.mean_closeness / mel, close_max=res.max_closeness / mel, drift_mean=float(drift.mean()),
+        drift_max=float(drift.max()), corner_in=float(np.degrees(corner_angles(CV, CF).min())),
+        corner=res.worst_corner_angle, ncv=res.nonconvex_faces, m=len(CF), reason=res.stop_reason,
+        rss=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)))
+
+
+def bench_candidates(args):
+    """The candidate rows: each candidate (built here from ``--candidates`` sizes, or read from ``--candidate-npz``
+    files) planarized against its surface as the conjugate pipeline does, plain, × 1000 and moved by 5e6."""
+    import tempfile
+
+    print()
+    print("| candidate (patch) | faces | variant | CPU s | wall s | it / factorizations | max / mean planarity | "
+          "converged / healthy | coverage | closeness mean / max (edges) | drift mean / max (edges) | "
+          "worst corner ° (input) | peak RSS MB | stop |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        specs = [(f"{n:,} triangles", None, n) for n in args.candidates]
+        specs += [(Path(p).name, p, None) for p in args.candidate_npz]
+        for label, path, n in specs:
+            if path is None:
+                path = str(Path(tmp) / f"candidate{n}.npz")
+                tc = make_candidate(n, path)
+                label += f" (built in {tc:.1f} s)"
+            for variant in args.candidate_variants:
+                r = _child(["--child-candidate", path, variant, str(args.candidate_budget)])
+                print(f"| {label} | {r['m']:,} | {variant} | {r['cpu']:.3g} | {r['dt']:.3g} | "
+                      f"{r['it']} / {r['facts']} | "
+                      f"{r['maxp']:.3g} / {r['meanp']:.3g} | {r['conv']} / {r['healthy']} | {r['coverage']:.4f} | "
+                      f"{r['close_mean']:.4f} / {r['close_max']:.4f} | {r['drift_mean']:.4f} / {r['drift_max']:.3f} | "
+                      f"{r['corner']:.2f} ({r['corner_in']:.2f}) | {r['rss']:,.0f} | {r['reason']} |", flush=True)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
@@ -289,6 +389,16 @@ def main(argv=None):
     ap.add_argument("--noisy", type=int, nargs="*", default=[60, 200], help="noisy grid sizes (quads per side)")
     ap.add_argument("--geometrylab", default="", help="path of a geometrylab checkout (optional peer)")
     ap.add_argument("--peer-budget", type=float, default=60.0, help="seconds per geometrylab run")
+    ap.add_argument("--candidates", type=int, nargs="*", default=[20000],
+                    help="candidate rows: surface sizes (triangles) of benchmarks/fields.py's patch to build")
+    ap.add_argument("--candidate-npz", nargs="*", default=[],
+                    help="candidate rows from saved .npz files (keys V, T: the surface; CV, CF: the candidate)")
+    ap.add_argument("--candidate-variants", nargs="*", default=["plain", "x1000", "moved"],
+                    choices=["plain", "x1000", "moved"], help="plain, every coordinate × 1000, moved by 5e6")
+    ap.add_argument("--candidates-only", action="store_true", help="only the candidate rows")
+    ap.add_argument("--candidate-budget", type=float, default=30.0,
+                    help="time budget of the candidate runs (the pipeline's: 30 s; a loaded machine may need more)")
+    ap.add_argument("--child-candidate", nargs=3, help=argparse.SUPPRESS)
     ap.add_argument("--child-100k", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--child-noisy", nargs=2, help=argparse.SUPPRESS)
     ap.add_argument("--child-peer", nargs=4, help=argparse.SUPPRESS)
@@ -302,6 +412,12 @@ def main(argv=None):
     if args.child_peer:
         nq, path, glide, budget = args.child_peer
         child_peer(int(nq), path, glide == "1", float(budget))
+        return
+    if args.child_candidate:
+        child_candidate(*args.child_candidate)
+        return
+    if args.candidates_only:
+        bench_candidates(args)
         return
     print("| mesh | quads | method | time s | t→1e-3 | t→1e-4 | final max planarity | mean / max move (edges) |"
           " mean closeness (edges) | worst corner ° | shortest edge / median | non-convex |")
@@ -323,6 +439,7 @@ def main(argv=None):
         print(f"| sin-cos grid | 99,856 | ours (free, no closeness), child process | {float(dt):.3g} | "
               f"{float(t3):.3g} | — | {float(p):.2e} | — | — | {ang} | {short} | {ncv} | "
               f"peak RSS {float(rss):,.0f} MB, {it} it |")
+    bench_candidates(args)
 
 
 if __name__ == "__main__":

@@ -263,6 +263,32 @@ class CrossingWatch:
         F = self.F
         return pairs[~(F[pairs[:, 0]][:, :, None] == F[pairs[:, 1]][:, None, :]).any(axis=(1, 2))]
 
+    def _separated(self, X, pairs, gap) -> np.ndarray:
+        """``(p,) bool``: face pairs whose corner sets lie more than ``gap`` apart along one of the axes tried (the
+        two face normals, the line between the centroids, the in-plane normals of every edge of both faces): their
+        convex hulls, hence their fan triangles, cannot touch (a separating axis; the exact test's tolerance is
+        under ``gap``). Faces side by side on a surface are separated by an edge normal, so most sphere-overlapping
+        pairs end here and the exact test sees only the few that come close."""
+        F = self.F
+        k = F.shape[1]
+        first = np.repeat(F[:, :1], k, axis=1)
+        Fp = np.where(self.valid, F, first)  # padding: the first corner again (min / max unchanged)
+        nxt = np.where(np.roll(self.valid, -1, axis=1), np.roll(F, -1, axis=1), F[:, :1])
+        nxt = np.where(self.valid, nxt, first)
+        A, B = X[Fp[pairs[:, 0]]], X[Fp[pairs[:, 1]]]  # (p, k, 3)
+        EA = X[nxt[pairs[:, 0]]] - A
+        EB = X[nxt[pairs[:, 1]]] - B
+        NA = cross(A[:, 2] - A[:, 0], A[:, -1] - A[:, 1]) + cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0])
+        NB = cross(B[:, 2] - B[:, 0], B[:, -1] - B[:, 1]) + cross(B[:, 1] - B[:, 0], B[:, 2] - B[:, 0])
+        axes = np.concatenate([NA[:, None], NB[:, None], (B.mean(axis=1) - A.mean(axis=1))[:, None],
+                               cross(NA[:, None, :], EA), cross(NB[:, None, :], EB)], axis=1)  # (p, 3 + 2k, 3)
+        L = np.sqrt(np.einsum("pai,pai->pa", axes, axes))
+        axes = axes / np.where(L > 0, L, np.inf)[..., None]
+        pa = np.einsum("pai,pki->pak", axes, A)
+        pb = np.einsum("pai,pki->pak", axes, B)
+        apart = (pa.max(axis=2) + gap < pb.min(axis=2)) | (pb.max(axis=2) + gap < pa.min(axis=2))
+        return apart.any(axis=1)
+
     def pairs(self, X: np.ndarray) -> np.ndarray:
         """Pairs ``(p, 2)`` (``a < b``, sorted) of faces sharing no vertex that cross or overlap at ``X``."""
         empty = np.zeros((0, 2), dtype=np.int64)
@@ -282,6 +308,8 @@ class CrossingWatch:
         G, R = self._spheres(X, faces)
         i, j = inv.reshape(-1, 2).T
         pairs = pairs[norm(G[i] - G[j]) < R[i] + R[j]]
+        if len(pairs):
+            pairs = pairs[~self._separated(X, pairs, 2e-3 * float(R.max()))]
         if len(pairs) == 0:
             return empty
         faces = np.unique(pairs)

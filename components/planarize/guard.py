@@ -17,6 +17,9 @@ the bounds do not depend on the model's units or placement):
   most 10 %, and has a row lifting it over the bound) nor under ``g² ×`` its input area.
 * **folds**: two faces sharing an edge may not open by less than ``min(A, g × the input's smallest opening)``
   (their unit normals ``n1 · n2 ≥ −cos`` of that).
+* **flips** (with an oriented reference): no face may turn its normal against the reference's normal under it
+  (measured at the input, on the side most of the faces lie on), unless it was flipped in the input already: the
+  verdict's "flipped" check, which a face sliding along a curved surface could otherwise fail at the end.
 * **crossings**: no face may cross or overlap a face it shares no vertex with, unless the two crossed in the
   input already (:func:`components.planarize.geometry.crossing_pairs`; tested last, only on states that pass the
   rest).
@@ -25,8 +28,8 @@ the bounds do not depend on the model's units or placement):
 edges and faces are the guard's **items**, one vector in that order (corners in
 :func:`components.core.mesh.face_corners` order, edges in :func:`components.core.mesh.edge_topology` order, then
 faces): an item close to its bound gets a hard row (:func:`components.planarize.rows.hard_rows`) that lifts it to
-a target just above the bound or holds it (:func:`watched_rows`, :func:`rows_to_guard`). Folds and crossings are
-only rejected: the line search shortens the step.
+a target just above the bound or holds it (:func:`watched_rows`, :func:`rows_to_guard`). Folds, flips and crossings
+are only rejected: the line search shortens the step.
 
 :func:`health_bounds` turns the same bounds into the thresholds of the final verdict
 (:func:`components.metrics.health.face_health`): ``A``, ``ρe``, ``ρa``, or 90 % of the input's worst values where
@@ -67,7 +70,7 @@ __all__ = ["GUARDS", "PanelGuard", "HealthBounds", "panel_guard", "health_bounds
            "panel_health", "new_crossings", "crossing_checked", "watched_rows", "rows_to_guard", "log_unhealthy"]
 
 #: the guards' names, as ``State.failed`` and the stop reason give them
-GUARDS = ("corner", "convexity", "edge", "area", "fold", "crossing")
+GUARDS = ("corner", "convexity", "edge", "area", "fold", "flip", "crossing")
 _DRIFT = 0.15  # room for the result's median edge to grow over the input's before the verdict's bound is missed
 _WORSEN = 0.1  # an item (corner, edge, face) that starts under its bound may lose at most this share of its value
 _EDGE_MARGIN = (1.10, 1.05)  # an edge below (act, target) × its bound gets a row lifting it to the target
@@ -107,6 +110,8 @@ class PanelGuard(NamedTuple):
     open_min: float  # the smallest opening (radians) between two faces sharing an edge
     crossings_in: np.ndarray  # (p,) int64 keys ``a · m + b`` of face pairs crossing in the input
     bounds: HealthBounds
+    flip_normals: np.ndarray | None = None  # (m, 3) the reference's unit normals under the input faces (oriented
+    flip_on: np.ndarray | None = None  # like the majority of the faces) and the faces not flipped in the input
 
     @property
     def n_items(self) -> int:
@@ -171,7 +176,25 @@ def panel_guard(prob) -> PanelGuard:
         item_tgt=np.concatenate([sharp_tgt, turn_tgt, _EDGE_MARGIN[1] * len_lift, _AREA_MARGIN[1] * area_lift,
                                  fold_tgt]),
         fold_faces=fold_faces, open_min=open_min, crossings_in=cross_in[:, 0] * len(F) + cross_in[:, 1],
-        bounds=health_bounds(opts, angle_in, len_in, area_in))
+        bounds=health_bounds(opts, angle_in, len_in, area_in), **_flip_watch(prob, N0, area_in))
+
+
+def _flip_watch(prob, N0, area_in) -> dict:
+    """The flip guard's data (with an oriented reference): the reference's unit normal at the closest point of
+    every input face's centroid, turned to the side most of the face area lies on (as the verdict's "flipped"
+    check of :func:`components.metrics.health.face_health` does), and the faces on that side in the input. A
+    face whose normal turns against its normal there is flipped: the verdict would find it so (faces slide by at
+    most a few edges, where a smooth reference's normal turns little)."""
+    if prob.ref_index is None or not prob.ref_index.oriented or len(prob.F) == 0:
+        return {}
+    C = prob.corners
+    cent = np.stack([np.bincount(C.face, prob.X0[C.v, j], minlength=len(prob.F)) for j in range(3)], axis=1)
+    cent /= np.bincount(C.face, minlength=len(prob.F))[:, None]
+    rn = prob.NR[prob.ref_index.query(cent).faces]
+    side = np.einsum("ij,ij->i", N0, rn)
+    good = area_in > 0
+    majority = 1.0 if float(np.sum(area_in[good] * np.sign(side[good]))) >= 0.0 else -1.0
+    return dict(flip_normals=majority * rn, flip_on=good & (majority * side > 0.0))
 
 
 def _median_bound(own, ratio_of_median) -> float:
@@ -301,6 +324,9 @@ def panel_health(prob, guard: PanelGuard, X, crossings: bool = True) -> Health:
     dots = np.einsum("ij,ij->i", N[ff[:, 0]], N[ff[:, 1]])
     if np.any(dots < -math.cos(guard.open_min)):
         failed.append("fold")
+    if guard.flip_on is not None and np.any(np.einsum("ij,ij->i", N[guard.flip_on],
+                                                      guard.flip_normals[guard.flip_on]) < 0.0):
+        failed.append("flip")
     if not failed and crossings and new_crossings(prob, guard, X):
         failed.append("crossing")
     return Health(turn, ang, sharp, lengths, areas, dots,

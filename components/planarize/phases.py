@@ -5,7 +5,11 @@ quadratically), *optimize* (``Δf + tΔo`` while planarity stays within ``κ ×`
 decreases: this walks along the planar meshes toward the smallest displacement / closest fit / fairest net; a step
 is only taken while the quadratic model, solved with the previous iteration's factorization, promises at least 1 %
 of the objective and as much as moving every vertex 1 % of an edge), *polish* (feasibility steps back below the
-tolerance). The best state seen is kept: the returned one is never worse than the input in planarity, and when
+tolerance). The phases switch on progress (the tolerance met, the optimize phase's tests), and on the clock only
+where the time budget runs out: the optimize phase does not start, or stops, when the budget no longer holds
+``_RESERVE`` more iterations as long as the latest ones (the polish needs them). A loaded machine gets the result
+of a quiet one as long as the budget lasts (it used to skip the optimize phase past half of the budget). The best
+state seen is kept: the returned one is never worse than the input in planarity, and when
 the tolerance was met once, the state that met it with the smallest soft objective wins over a later one that
 does not.
 
@@ -58,6 +62,7 @@ _OPT_DECREASE = 0.01  # optimize phase ends when an iteration lowers the soft ob
 _OPT_MIN_MOVE = 0.01  # ... or promises less than moving every vertex this far (mean edges) would (½ d² each)
 _STALL = 10  # iterations without improvement before giving up
 _SLOW = 0.01  # ... or without the worst face improving by this fraction
+_RESERVE = 3  # iterations of the time budget kept for the polish: the optimize phase stops (or does not start) short
 _OPT_ROUNDS = 3  # optimize phases (each followed by a polish) when an optimize step is blocked by the band
 _HELD_BETA = 0.25  # restore phase: an accepted step shorter than this fraction of the feasibility step is held
 _HELD_STEPS = 3  # ... this many held steps in a row relax the closeness stiffness
@@ -151,12 +156,12 @@ def iterate(prob, guard, t0: float) -> Run:
     while not run.stop_reason:
         progress.report(run.elapsed() / max(opts.time_budget, 1e-3), f"planarize, iteration {run.it}")
         if run.converged:
-            if run.phase == "restore" and opts.optimize_iterations > 0 and run.elapsed() < 0.5 * opts.time_budget:
+            if run.phase == "restore" and opts.optimize_iterations > 0 and _time_left(run, opts, _RESERVE + 1):
                 run.phase = "optimize"
                 run.opt_rounds = 1
                 _restore_closeness(prob, run)
             elif (run.phase == "polish" and run.opt_again and run.opt_its < opts.optimize_iterations
-                  and run.elapsed() < 0.5 * opts.time_budget):
+                  and _time_left(run, opts, _RESERVE + 1)):
                 run.phase, run.opt_again, run.t_opt = "optimize", False, 1.0
                 run.opt_rounds += 1
             elif run.phase != "optimize":
@@ -164,6 +169,9 @@ def iterate(prob, guard, t0: float) -> Run:
                 break
         if run.phase == "optimize" and run.last_fact is not None and not _optimize_promises_enough(prob, run):
             _to_polish(run)  # the next optimize step promises too little: polish (when needed) and stop
+            continue
+        if run.phase == "optimize" and not _time_left(run, opts, _RESERVE):
+            _to_polish(run)  # the budget would run out before the polish: polish now
             continue
         if run.it >= opts.max_iterations:
             run.stop_reason = f"iteration cap ({opts.max_iterations}) reached"
@@ -202,6 +210,16 @@ def iterate(prob, guard, t0: float) -> Run:
     return run
 
 
+def _time_left(run: Run, opts, iterations: int) -> bool:
+    """Whether the time budget still holds ``iterations`` more iterations as long as the longest of the last three
+    (always, before any: the switch depends on progress, and on the clock only when the budget runs out)."""
+    t = run.hist["t"]
+    if len(t) < 2:
+        return True
+    longest = float(np.max(np.diff(t[-4:])))
+    return run.elapsed() + iterations * longest <= opts.time_budget
+
+
 def _advance(prob, run: Run, step: Step, f_cur: float, optimize: bool):
     """Take the accepted step: history, best states, phase change or stall."""
     opts = prob.opts
@@ -228,7 +246,7 @@ def _advance(prob, run: Run, step: Step, f_cur: float, optimize: bool):
         run.opt_its += 1
         run.t_opt = min(1.0, 2.0 * step.t)
         if (run.opt_its >= opts.optimize_iterations or step_opt < _OPT_STEP
-                or f_cur - step.f_new < _OPT_DECREASE * f_cur or run.elapsed() > 0.5 * opts.time_budget):
+                or f_cur - step.f_new < _OPT_DECREASE * f_cur):
             run.phase = "polish"
             run.since_best = 0
     elif run.phase == "restore" and not run.converged:

@@ -28,15 +28,15 @@ sheared the net (a ±3 % noisy 60² grid: worst corner 87° → 62° after resto
 Panel health ("fabricable or it says why"): the solver cannot collapse, pinch or fold a panel. Corners keep at least
 20° and half the input's worst, edges 0.2 × the median edge and half their input length, faces 0.1 × the median
 area (a corner, edge or face that starts under its bound may lose at most 10 %); no face turns non-convex, folds
-onto its neighbour or crosses a face it shares no vertex with (:mod:`~components.planarize.guard`). Corners,
-edges, faces and hinges close to a bound become hard rows (inequalities in effect: rows whose multiplier holds a
-value down are released), steps are shortened otherwise; the restore phase also takes a step that lowers the total
-excess over the tolerance without raising the worst face, and stops when the worst face has not improved by 1 %
-in 10 iterations. ``converged`` means the tolerance was reached **and** the result is healthy by
-:func:`components.metrics.health.face_health` at the same bounds (with a reference also its coverage); when the
-guard and planarity cannot both be met the solver stops healthy and a warning says how far the tolerance is
-(the counts, the worst planarity against the tolerance). The best state seen is returned, never one worse than the
-input in planarity.
+onto its neighbour, turns over against the reference or crosses a face it shares no vertex with
+(:mod:`~components.planarize.guard`). Corners, edges, faces and hinges close to a bound become hard rows
+(inequalities in effect: rows whose multiplier holds a value down are released), steps are shortened otherwise;
+the restore phase also takes a step that lowers the total excess over the tolerance without raising the worst
+face, and stops when the worst face has not improved by 1 % in 10 iterations. ``converged`` means the tolerance
+was reached **and** the result is healthy by :func:`components.metrics.health.face_health` at the same bounds
+(with a reference also its coverage); when the guard and planarity cannot both be met the solver stops healthy
+and a warning says how far the tolerance is (the counts, the worst planarity against the tolerance). The best
+state seen is returned, never one worse than the input in planarity.
 
 Units and placement do not matter: the mesh is centred before anything is computed (and moved back at the end) and
 the solver works in units of the mean edge; every bound and epsilon is relative to the mesh's own size. Input
@@ -254,8 +254,9 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
         verdict.warnings.append(
             f"closeness: the panel-health guard held the planarization at closeness weight {opts.closeness_weight:g}; "
             + (f"planarity was restored at {run.relaxed_to * opts.closeness_weight:.3g} and not optimized back "
-               f"(mean closeness {float(d[used].mean()):.3g}); a larger time_budget lets the optimize phase pull "
-               "the mesh back toward the surface" if run.converged else
+               f"(mean closeness {float(d[used].mean()):.3g}): the optimize phase, which pulls the planar mesh back "
+               "toward the surface, found no step or was not run (optimize_iterations 0, or the time budget spent)"
+               if run.converged else
                f"relaxing it to {run.relaxed_to * opts.closeness_weight:.3g} did not reach the tolerance either"))
     converged = bool(run.converged and verdict.healthy)
     stop_reason = run.stop_reason if converged or not run.converged else f"{run.stop_reason}; panels not healthy"
@@ -289,8 +290,8 @@ def _measured(prob, guard, run, X, ref) -> _Measures:
     """What the result reports about ``X`` (model units, centred like ``ref``)."""
     Fw = prob.F
     pl = quad_planarity(X, Fw)
-    if ref is not None:
-        d = TriangleIndex(ref[0], triangulate(ref[1])[0], name="reference").query(X).distances
+    if ref is not None:  # the solver's index of the reference (normalized units): no second build
+        d = prob.ref_index.query((X - prob.center) / prob.scale).distances * prob.scale
     else:
         d = np.linalg.norm(X - prob.V, axis=1)
     ang, ncv_out = prob.frames.shape(X)
