@@ -26,8 +26,8 @@ Steps (mixed-integer quadrangulation after Bommes, Zimmer & Kobbelt 2009, simpli
    to the boundary tangent, short runs merged). One sparse factorization.
 5. *Greedy rounding*: singular positions, boundary constants and loop translations are rounded to integers,
    closest to an integer first, a batch at a time, re-solving the rest after each batch. The re-solves reuse the
-   one factorization: with ``Z = M⁻¹E`` for the integer columns ``E``, fixing a set ``S`` is a small dense
-   Schur-complement solve on ``Z[S, S]``.
+   one factorization: with ``Z = M⁻¹E`` for the integer columns ``E`` (solved once for all densities), fixing a
+   set ``S`` is a small dense Schur-complement solve on ``Z[S, S]``.
 
 References
 ----------
@@ -39,7 +39,9 @@ direction field", ACM Trans. Graph. (SIGGRAPH Asia) 30(6), 2011 (non-orthogonal 
 """
 from __future__ import annotations
 
+import hashlib
 import logging
+import threading
 import time
 from typing import NamedTuple
 
@@ -56,7 +58,7 @@ from components.core.measures import unit
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.types import Curves, Mesh, Points
 from components.fields.extract import iso_segments
-from components.fields.field import conjugate_frame_field, smooth_frame_field
+from components.fields.field import conjugate_frame_field, field_curvature, smooth_frame_field
 
 log = logging.getLogger(__name__)
 
@@ -84,9 +86,12 @@ _A = np.array(
 
 def _rot_frame(U: np.ndarray, W: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rotate frame pairs by ``k`` quarter turns: ``k = 1`` maps ``(U, W)`` to ``(W, −U)``."""
-    k = np.mod(k, 4)[:, None]
-    U2 = np.where(k == 0, U, np.where(k == 1, W, np.where(k == 2, -U, -W)))
-    W2 = np.where(k == 0, W, np.where(k == 1, -U, np.where(k == 2, -W, U)))
+    k = np.mod(k, 4)
+    # (U, W) -> (W, -U) -> (-U, -W) -> (-W, U): the first is P[k], the second P[k + 1] of P = (U, W, -U, -W)
+    sign = np.where(k >= 2, -1.0, 1.0)[:, None]
+    odd = (k % 2 == 1)[:, None]
+    U2 = sign * np.where(odd, W, U)
+    W2 = sign * np.where(odd, -U, W)
     return U2, W2
 
 
@@ -215,10 +220,11 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
     """
     if field == "principal":
         return _smoothed_principal_field(V, T, alignment, constraints)
-    fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints)
+    cv = field_curvature(V, T)  # once for both fields
+    fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints, curvature=cv)
     if field == "conjugate":
         extra = {} if release_separation is None else {"release_separation": release_separation}
-        fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, **extra)
+        fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, curvature=cv, **extra)
     return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
 
 
@@ -231,6 +237,7 @@ class _Topology(NamedTuple):
     twin: np.ndarray  # (3m,) opposite half-edge or -1 on the boundary
     n: np.ndarray  # (m, 3) unit normals
     area: np.ndarray  # (m,)
+    E: np.ndarray  # (e, 2) undirected edges (edge_topology)
 
 
 def _topology(V: np.ndarray, T: np.ndarray) -> _Topology:
@@ -247,7 +254,7 @@ def _topology(V: np.ndarray, T: np.ndarray) -> _Topology:
     twin[b] = a
     N = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     area = 0.5 * np.linalg.norm(N, axis=1)
-    return _Topology(H, twin, unit(N), area)
+    return _Topology(H, twin, unit(N), area, topo.E)
 
 
 def _matchings(V, T, tp: _Topology, U, W) -> np.ndarray:
@@ -267,14 +274,11 @@ def _matchings(V, T, tp: _Topology, U, W) -> np.ndarray:
         return a[:, None] * d + b[:, None] * bf
 
     Ug, Wg = carry(U[g]), carry(W[g])
-    best = np.full(len(h), -np.inf)
-    k = np.zeros(len(h), dtype=np.int64)
-    for r in range(4):
-        Ur, Wr = _rot_frame(U[f], W[f], np.full(len(h), r))
-        s = np.einsum("ij,ij->i", Ur, Ug) + np.einsum("ij,ij->i", Wr, Wg)
-        better = s > best
-        best[better] = s[better]
-        k[better] = r
+    Uf, Wf = U[f], W[f]
+    uu = np.einsum("ij,ij->i", Uf, Ug) + np.einsum("ij,ij->i", Wf, Wg)
+    wu = np.einsum("ij,ij->i", Wf, Ug) - np.einsum("ij,ij->i", Uf, Wg)
+    # score of R_r(frame_f) against frame_g: r = 0: uu, 1: wu, 2: -uu, 3: -wu (the first best wins ties)
+    k = np.argmax(np.stack([uu, wu, -uu, -wu], axis=1), axis=1).astype(np.int64)
     out = np.full(3 * m, -1, dtype=np.int64)
     out[h] = k
     return out
@@ -300,7 +304,7 @@ def _cut_paths(V, T, tp: _Topology, sing: np.ndarray, loops: list[np.ndarray]) -
     Returns ``paths`` (lists of vertices, singular or loop start first), ``kinds`` ("sing" / "loop") and warnings.
     """
     n = len(V)
-    E = edge_topology(T).E
+    E = tp.E
     L = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
     bnd = np.zeros(n, dtype=bool)
     for lp in loops:
@@ -733,6 +737,9 @@ def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     The matching, cuts, assembly, factorization and relaxed solution depend on the density only through a final
     scale, so they are computed once; each density then has its own rounding. Every result is the one
     :func:`seamless_parametrization` gives for that density; the shared seconds are in the first one's timings.
+    The cut graph and the field-fitting energy depend only on the mesh and the field, not on the boundary mode:
+    those of the last field are remembered (keyed by the arrays' contents), so a second call on the same field
+    (the candidate's other boundary mode) skips them.
 
     Example
     -------
@@ -750,27 +757,18 @@ def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
                                                             1.0, free_angle)
     densities = [check_number(d, "density", 0, above=True) for d in densities]
     m = len(T)
-    tp = _topology(V, T)
-    loops = _disk_boundary_loops(V, T)
-    # right-handed frames: W on the counter-clockwise side of U (the cross (±U, ±W) is unchanged)
-    W = np.where((np.einsum("ij,ij->i", np.cross(U, W), tp.n) < 0)[:, None], -W, W)
-    match = _matchings(V, T, tp, U, W)
-    sing, turns = _singular_vertices(T, tp, match, len(V))
-    timings["matching"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    paths, kinds, warnings0 = _cut_paths(V, T, tp, sing, loops)
-    cuts = _build_cuts(V, T, tp, match, paths, kinds)
-    if cuts.inconsistent:
-        warnings0.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
-    Uc, Wc = _rot_frame(U, W, cuts.comb)
-    timings["cut_graph"] = time.perf_counter() - t1
+    fc = _field_cuts(V, T, U, W)
+    tp, loops, W, sing, turns, kinds, cuts, Uc, Wc = (fc.tp, fc.loops, fc.W, fc.sing, fc.turns, fc.kinds, fc.cuts,
+                                                      fc.Uc, fc.Wc)
+    warnings0 = list(fc.warnings)
+    timings["matching"], timings["cut_graph"] = fc.seconds if fc.fresh else (0.0, 0.0)
     t2 = time.perf_counter()
     bd = _aligned_boundary(V, T, tp, cuts, U, W, loops, target, min_run * target, free_angle,
                            active=boundary == "aligned" and bw > 0)
     lay = _layout(cuts, kinds, bd.nseg)
     P = _copy_map(cuts, kinds, lay)
     corner_copy = cuts.copy.reshape(m, 3)
-    M, b = _normal_equations(V, T, tp, corner_copy, Uc, Wc, target, P, bd, bw, lay)
+    M, b = _normal_equations(fc.energy, target, P, bd, bw, lay)
     timings["assemble"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     lu = splu(M, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
@@ -779,15 +777,16 @@ def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     if center_sizes:  # every constraint is homogeneous: the relaxed solution for h / s is s times this one
         center = _centering_scale(V, T, (P @ y_relaxed).reshape(2, lay.nc).T[corner_copy], target, tp.area)
     ints = _integer_columns(cuts, kinds, lay)
+    Z = _rounding_basis(lu, lay.ny, ints)
     timings["factor_solve"] = time.perf_counter() - t3
-    cut_edges = np.array([[p[i], p[i + 1]] for p in paths for i in range(len(p) - 1)], dtype=np.int64).reshape(-1, 2)
+    cut_edges = fc.cut_edges
     shared = time.perf_counter() - t0
     out = []
     for density in densities:
         t4 = time.perf_counter()
         scale = center * density
         y0 = y_relaxed * scale
-        y = _greedy_round(lu, y0, ints, round_batch)
+        y = _greedy_round(Z, y0, ints, round_batch)
         tm = dict(timings) if not out else {k: 0.0 for k in timings}
         tm["rounding"] = time.perf_counter() - t4
         warnings = list(warnings0)
@@ -803,8 +802,75 @@ def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
         tm["total"] = time.perf_counter() - t4 + (shared if not out else 0.0)
         log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
                   len(ints), tm["total"])
-        out.append(Parametrization(UV, Uc, Wc, sing, turns, cut_edges, err, flipped, seam_gap, boundary_gap,
-                                   corner_copy, warnings, tm, scale))
+        out.append(Parametrization(UV, Uc.copy(), Wc.copy(), sing.copy(), turns.copy(), cut_edges.copy(), err, flipped,
+                                   seam_gap, boundary_gap, corner_copy.copy(), warnings, tm, scale))
+    return out
+
+
+class _FieldCuts(NamedTuple):
+    """What :func:`seamless_parametrizations` derives from the mesh and the field alone (not from the boundary
+    mode, target or densities): topology, boundary loops, the right-handed ``W``, singularities, cut graph and the
+    combed frames ``Uc, Wc``; ``seconds`` (matching, cut graph) and ``fresh`` (computed by this call, not
+    remembered)."""
+
+    tp: _Topology
+    loops: list
+    W: np.ndarray
+    sing: np.ndarray
+    turns: np.ndarray
+    paths: list
+    kinds: list
+    warnings: list
+    cuts: _Cuts
+    Uc: np.ndarray
+    Wc: np.ndarray
+    cut_edges: np.ndarray
+    energy: tuple
+    seconds: tuple
+    fresh: bool = True
+
+
+_last_cuts: list = []  # [(content key, _FieldCuts)]: the last field's cut graph
+_last_cuts_lock = threading.Lock()
+
+
+def _content_key(*arrays: np.ndarray) -> bytes:
+    """Digest of the arrays' dtypes, shapes and bytes."""
+    h = hashlib.blake2b(digest_size=20)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.data)
+    return h.digest()
+
+
+def _field_cuts(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray) -> _FieldCuts:
+    """:class:`_FieldCuts` of a mesh and field. The last one is remembered (keyed by the arrays' contents): the
+    candidate parametrizes one field in two boundary modes, and the cut graph is the same for both."""
+    key = _content_key(V, T, U, W)
+    with _last_cuts_lock:
+        if _last_cuts and _last_cuts[0][0] == key:
+            return _last_cuts[0][1]._replace(fresh=False)
+    t0 = time.perf_counter()
+    tp = _topology(V, T)
+    loops = _disk_boundary_loops(V, T, tp.E)
+    # right-handed frames: W on the counter-clockwise side of U (the cross (±U, ±W) is unchanged)
+    W = np.where((np.einsum("ij,ij->i", np.cross(U, W), tp.n) < 0)[:, None], -W, W)
+    match = _matchings(V, T, tp, U, W)
+    sing, turns = _singular_vertices(T, tp, match, len(V))
+    t1 = time.perf_counter()
+    paths, kinds, warnings = _cut_paths(V, T, tp, sing, loops)
+    cuts = _build_cuts(V, T, tp, match, paths, kinds)
+    if cuts.inconsistent:
+        warnings.append(f"{cuts.inconsistent} edges keep a field mismatch off the cuts (uncut singularities)")
+    Uc, Wc = _rot_frame(U, W, cuts.comb)
+    pieces = [np.stack([np.asarray(p[:-1]), np.asarray(p[1:])], axis=1) for p in paths if len(p) > 1]
+    cut_edges = np.concatenate(pieces).astype(np.int64) if pieces else np.zeros((0, 2), dtype=np.int64)
+    energy = _copy_energy(V, T, tp, cuts.copy.reshape(len(T), 3), cuts.ncopies, Uc, Wc)
+    out = _FieldCuts(tp, loops, W, sing, turns, paths, kinds, warnings, cuts, Uc, Wc, cut_edges, energy,
+                     (t1 - t0, time.perf_counter() - t1))
+    with _last_cuts_lock:
+        _last_cuts[:] = [(key, out)]
     return out
 
 
@@ -826,14 +892,14 @@ def _checked_inputs(V, T, U, W, target_length, boundary, boundary_weight, densit
     return V, T, U, W, target, bw, density, free_angle
 
 
-def _disk_boundary_loops(V: np.ndarray, T: np.ndarray) -> list:
+def _disk_boundary_loops(V: np.ndarray, T: np.ndarray, E: np.ndarray | None = None) -> list:
     """Boundary loops of a connected disk with holes; :class:`MeshError` for a closed surface, several pieces or
-    handles (genus > 0)."""
+    handles (genus > 0). ``E``: the mesh's edges when known."""
     n, m = len(V), len(T)
     loops = boundary_loops(T)
     if not loops:
         raise MeshError("mesh", "the surface is closed: the parametrization needs an open surface (a boundary)")
-    ne = len(edge_topology(T).E)
+    ne = len(edge_topology(T).E if E is None else E)
     used = np.unique(T)
     chi = len(used) - ne + m
     ncomp = connected_components(sp.csr_matrix((np.ones(3 * m), (T.ravel(), np.roll(T, -1, 1).ravel())),
@@ -926,19 +992,27 @@ def _copy_map(cuts: _Cuts, kinds: list, lay: _Layout) -> sp.csr_matrix:
                          shape=(2 * nc, lay.ny))
 
 
-def _normal_equations(V, T, tp: _Topology, corner_copy: np.ndarray, Uc, Wc, target: float, P: sp.csr_matrix,
-                      bd: _Boundary, bw: float, lay: _Layout) -> tuple[sp.csc_matrix, np.ndarray]:
-    """``M y = b`` of the least-squares energy (area-weighted gradient fit to the dual frame over ``target``,
-    the stiff boundary penalty with weight ``bw``) in the unknowns, one free copy pinned."""
-    G = _gradient_operator(V, T, tp, corner_copy, lay.nc)
-    Us, Ws = _dual_targets(Uc, Wc, tp.n, 1.0 / target)
-    sw = np.repeat(np.sqrt(tp.area), 3)
-    Gw = sp.diags(sw) @ G
-    B = sp.bmat([[Gw, None], [None, Gw]], format="csr")
-    rhs = np.concatenate([sw * Us.ravel(), sw * Ws.ravel()])
-    BP = (B @ P).tocsr()
-    M = (BP.T @ BP).tocsr()
-    b = BP.T @ rhs
+def _copy_energy(V, T, tp: _Topology, corner_copy: np.ndarray, ncopies: int, Uc, Wc):
+    """The field-fitting energy per coordinate in the vertex copies, for ``target = 1``: ``K = Gᵀ A G`` (the
+    area-weighted gradient Gram matrix, ``(nc, nc)``) and ``Gᵀ A U*``, ``Gᵀ A W*`` (``A`` the face areas, ``G`` the
+    per-face gradient, ``U*, W*`` the dual frame), so that ``Σ_f area_f |∇u − U*/h|²`` is
+    ``uᵀ K u − 2 uᵀ Gᵀ A U* / h + const``."""
+    G = _gradient_operator(V, T, tp, corner_copy, ncopies)
+    Us, Ws = _dual_targets(Uc, Wc, tp.n, 1.0)
+    a3 = np.repeat(tp.area, 3)
+    GtA = (G.T @ sp.diags(a3)).tocsr()
+    return (GtA @ G).tocsr(), GtA @ Us.ravel(), GtA @ Ws.ravel()
+
+
+def _normal_equations(energy, target: float, P: sp.csr_matrix, bd: _Boundary, bw: float,
+                      lay: _Layout) -> tuple[sp.csc_matrix, np.ndarray]:
+    """``M y = b`` of the least-squares energy (area-weighted gradient fit to the dual frame over ``target``:
+    :func:`_copy_energy`, the stiff boundary penalty with weight ``bw``) in the unknowns, one free copy pinned."""
+    K, gU, gW = energy
+    nc = lay.nc
+    Pu, Pv = P[:nc], P[nc:]
+    M = (Pu.T @ (K @ Pu) + Pv.T @ (K @ Pv)).tocsr()
+    b = (Pu.T @ gU + Pv.T @ gW) / target
     if bd.nseg:
         nb = len(bd.seg_copy)
         # rows: w (x[copy][coord] - c_seg)
@@ -1023,24 +1097,32 @@ def _centering_scale(V, T, UV, target: float, area: np.ndarray, spread: float = 
     lens = np.concatenate([np.linalg.norm(xu[ok], axis=1), np.linalg.norm(xv[ok], axis=1)]) / target
     w = np.concatenate([area[ok], area[ok]])
     cand = np.exp(np.linspace(-np.log(limit), np.log(limit), 81))
-    score = np.array([w[np.abs(lens / c - 1.0) <= spread].sum() for c in cand])
+    # area with c (1 − spread) ≤ lens ≤ c (1 + spread), for every candidate c at once (prefix sums)
+    order = np.argsort(lens)
+    ls = lens[order]
+    cw = np.concatenate([[0.0], np.cumsum(w[order])])
+    score = cw[np.searchsorted(ls, cand * (1.0 + spread), side="right")] - cw[np.searchsorted(ls, cand * (1.0 - spread))]
     best = np.nonzero(score >= score.max() * (1 - 1e-9))[0]
     return float(cand[best[np.argmin(np.abs(np.log(cand[best])))]])
 
 
-def _greedy_round(lu, y0: np.ndarray, ints: np.ndarray, batch: float) -> np.ndarray:
+def _rounding_basis(lu, ny: int, ints: np.ndarray) -> np.ndarray:
+    """``Z = M⁻¹ E`` ``(ny, k)`` for the unit columns ``E`` of the integer variables (one solve for all densities)."""
+    k = len(ints)
+    E = np.zeros((ny, k))
+    E[ints, np.arange(k)] = 1.0
+    return lu.solve(E) if k else E
+
+
+def _greedy_round(Z: np.ndarray, y0: np.ndarray, ints: np.ndarray, batch: float) -> np.ndarray:
     """Round the integer variables greedily (closest to an integer first), re-solving the others each time.
 
-    With ``Z = M⁻¹ E`` (E: unit columns of the integer variables), fixing a set ``S`` to values ``d`` gives
-    ``y = y0 − Z[:, S] λ`` with ``Z[S, S] λ = y0[S] − d`` (Lagrange multipliers of the constraints ``y_S = d``).
+    With ``Z = M⁻¹ E`` (:func:`_rounding_basis`), fixing a set ``S`` to values ``d`` gives ``y = y0 − Z[:, S] λ``
+    with ``Z[S, S] λ = y0[S] − d`` (Lagrange multipliers of the constraints ``y_S = d``).
     """
     k = len(ints)
     if k == 0:
         return y0
-    ny = len(y0)
-    E = np.zeros((ny, k))
-    E[ints, np.arange(k)] = 1.0
-    Z = lu.solve(E)
     Zi = Z[ints]  # (k, k)
     y0i = y0[ints]
     fixed = np.zeros(k, dtype=bool)
