@@ -38,8 +38,9 @@ regions larger than one median panel.
 Scale and placement
 -------------------
 Every bound is relative to the mesh's own size (median edge, median face area), never an absolute epsilon, and
-positions are taken relative to the bounding-box centre before any product: the verdict and every ratio are the
-same for a model scaled by 0.001 or 1000 or moved by 5e6.
+positions are taken relative to a bounding-box centre before any product (the mesh's; the reference's own for the
+reference, so that its closest-point index is built once and reused by every check against it): the verdict and
+every ratio are the same for a model scaled by 0.001 or 1000 or moved by 5e6.
 
 References
 ----------
@@ -171,8 +172,10 @@ def face_health(
         Vertex positions.
     F : (m, k) array_like of int
         Padded polygon faces (quads, triangles ``(a, b, c, c)``, n-gons).
-    reference : (Vr, Fr) or None
-        The design surface (triangles or polygons, fan-triangulated): adds flipped faces, closeness and coverage.
+    reference : (Vr, Fr), TriangleIndex or None
+        The design surface (triangles or polygons, fan-triangulated; or the
+        :class:`~components.core.proximity.TriangleIndex` of its triangles): adds flipped faces, closeness and
+        coverage. Its closest-point index is built once per surface (by content) and reused by later calls.
     tolerance : float
         Largest scale-free planarity of a healthy face (:func:`components.core.measures.quad_planarity`).
     min_edge_ratio : float
@@ -226,7 +229,8 @@ def face_health(
     X = V - center
     ref = None
     if reference is not None:
-        ref = _reference_triangles(reference, center)
+        Xr, Tr, ref_center = _reference_triangles(reference)
+        ref = (Xr, Tr, center - ref_center)
     return _health(X, F, ref, opts, name)
 
 
@@ -263,14 +267,20 @@ def _checked_options(tolerance, min_edge_ratio, min_angle, min_area_ratio, min_c
     )
 
 
-def _reference_triangles(reference, center, name: str = "reference"):
-    """The reference as centred vertices and triangles (triangles with a repeated corner dropped: no area)."""
-    Vr, Fr = check_mesh(reference, name, allow_degenerate=True, manifold=False)
+def _reference_triangles(reference, name: str = "reference"):
+    """The reference as vertices relative to its own bounding-box centre, triangles (those with a repeated corner
+    dropped: no area) and that centre. Centred on itself, the same design surface gives the same arrays for every
+    panelling checked against it, so its closest-point index is built once (:class:`TriangleIndex` reuses it)."""
+    if isinstance(reference, TriangleIndex):
+        Vr, Fr = reference.V, reference.T
+    else:
+        Vr, Fr = check_mesh(reference, name, allow_degenerate=True, manifold=False)
     Tr = Fr if Fr.shape[1] == 3 else triangulate(Fr)[0]
     Tr = Tr[(Tr[:, 0] != Tr[:, 1]) & (Tr[:, 1] != Tr[:, 2]) & (Tr[:, 0] != Tr[:, 2])]
     if len(Tr) == 0:
         raise MeshError(name, "has no triangle or polygon with 3 distinct corners")
-    return Vr - center, Tr
+    center = 0.5 * (Vr.min(axis=0) + Vr.max(axis=0))
+    return Vr - center, Tr, center
 
 
 class _Findings:
@@ -412,12 +422,12 @@ def _reference_checks(X, F, sc: _Scales, ref, o: _Options, out: _Findings, name:
 
     Returns ``coverage, holes, max_distance, mean_distance, reversed`` (distances × the median edge).
     """
-    Xr, Tr = ref
+    Xr, Tr, shift = ref  # the reference centred on itself; X + shift is the mesh in the reference's frame
     index = TriangleIndex(Xr, Tr, name="reference")
     k = F.shape[1]
     weights = (np.arange(k)[None, :] < sc.sizes[:, None]) / sc.sizes[:, None].astype(np.float64)
     centroids = np.einsum("mk,mkj->mj", weights, X[F])
-    q = index.query(np.concatenate([X, centroids]), name=name)
+    q = index.query(np.concatenate([X, centroids]) + shift, name=name)
     dist = q.distances[:len(X)] / sc.edge
     used = np.unique(F)
     dmax, dmean = float(dist[used].max()), float(dist[used].mean())
@@ -428,14 +438,15 @@ def _reference_checks(X, F, sc: _Scales, ref, o: _Options, out: _Findings, name:
     reversed_ = False
     if index.oriented:  # normals of an unoriented reference say nothing about a face's side
         good = ~sc.degenerate
-        rn = unit(cross(Xr[Tr[:, 1]] - Xr[Tr[:, 0]], Xr[Tr[:, 2]] - Xr[Tr[:, 0]]))
-        side = dot(unit(sc.area_vec), rn[q.faces[len(X):]])
+        Tq = Tr[q.faces[len(X):]]  # the reference triangle nearest each face's centroid
+        rn = unit(cross(Xr[Tq[:, 1]] - Xr[Tq[:, 0]], Xr[Tq[:, 2]] - Xr[Tq[:, 0]]))
+        side = dot(unit(sc.area_vec), rn)
         majority = 1.0 if float(np.sum(sc.area[good] * np.sign(side[good]))) >= 0.0 else -1.0
         reversed_ = majority < 0
         flipped = good & (side * majority < 0.0)
         out.flag("flipped", flipped, f"{_n(flipped.sum(), 'face')} flipped against the reference surface, "
                                      f"e.g. face {int(np.argmax(flipped))}")
-    coverage, holes, outside = _coverage(X, F, sc.topo, Xr, Tr, sc.edge, sc.face_area, o)
+    coverage, holes, outside = _coverage(X, F, sc.topo, Xr - shift, Tr, sc.edge, sc.face_area, o)
     if coverage < o.min_coverage:
         out.lines.append(f"coverage {coverage:.0%} of the design surface < {o.min_coverage:.0%} "
                          f"({_n(holes, 'hole')} larger than one panel; of the uncovered area {outside:.0%} lies "
@@ -496,9 +507,10 @@ def _folds(topo, H, HF, N, good, min_angle):
 def _intersecting_pairs(X, F, good, tol) -> np.ndarray:
     """Pairs ``(a, b)``, ``a < b``, of non-degenerate faces sharing no vertex whose triangles cross or overlap.
 
-    Broad phase: bounding spheres of the fan triangles (about their centroids) in a KD-tree. Narrow phase
-    (vectorized): plane-side rejection, then each triangle's edges against the other triangle both ways (Möller
-    1997); triangles lying within ``tol`` of each other's plane are tested for overlap in that plane instead.
+    Broad phase: bounding spheres of the faces (each holds its fan triangles) in k-d trees, pairs sharing a
+    vertex dropped, then the bounding spheres of the two faces' triangles. Narrow phase (vectorized): plane-side
+    rejection, then each triangle's edges against the other triangle both ways (Möller 1997); triangles lying
+    within ``tol`` of each other's plane are tested for overlap in that plane instead.
     """
     empty = np.zeros((0, 2), dtype=np.int64)
     T, J = triangulate(F)
@@ -507,21 +519,38 @@ def _intersecting_pairs(X, F, good, tol) -> np.ndarray:
     e0, e1, e2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 1], P[:, 0] - P[:, 2]
     longest2 = np.maximum(np.maximum(dot(e0, e0), dot(e1, e1)), dot(e2, e2))
     keep &= norm(cross(e0, -e2)) > _SLIVER * longest2
-    idx = np.nonzero(keep)[0]
+    idx = np.nonzero(keep)[0]  # triangulate() lists a face's triangles together, faces in order
     if len(idx) < 2:
         return empty
     P, J = P[idx], J[idx]
+    faces, first, count = np.unique(J, return_index=True, return_counts=True)
+    if len(faces) < 2:
+        return empty
+    C = X[F[faces]]  # (f, k, 3) corners (padding repeats a corner: it changes no bound)
+    Gf = C.mean(axis=1)
+    Rf = np.sqrt(np.max(dot(C - Gf[:, None, :], C - Gf[:, None, :]), axis=1))
+    fp = _sphere_pairs(Gf, Rf, tol)
+    fa, fb = faces[fp[:, 0]], faces[fp[:, 1]]
+    apart = ~(F[fa][:, :, None] == F[fb][:, None, :]).any(axis=(1, 2))
+    fp = fp[apart]
+    if not len(fp):
+        return empty
+    # every triangle of one face against every triangle of the other
+    na, nb = count[fp[:, 0]], count[fp[:, 1]]
+    n = na * nb
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    ta = np.repeat(first[fp[:, 0]], n) + k // np.repeat(nb, n)
+    tb = np.repeat(first[fp[:, 1]], n) + k % np.repeat(nb, n)
     G = P.mean(axis=1)
     R = np.sqrt(np.max(dot(P - G[:, None, :], P - G[:, None, :]), axis=1))
-    pairs = _sphere_pairs(G, R, tol)
+    D = G[ta] - G[tb]
+    near = dot(D, D) <= (R[ta] + R[tb] + tol) ** 2
+    ta, tb = ta[near], tb[near]
     hits = []
-    for s in range(0, len(pairs), _PAIR_CHUNK):
-        pr = pairs[s:s + _PAIR_CHUNK]
-        fi, fj = J[pr[:, 0]], J[pr[:, 1]]
-        apart = ~(F[fi][:, :, None] == F[fj][:, None, :]).any(axis=(1, 2))
-        pr = pr[apart]
-        hit = _triangles_cross(P[pr[:, 0]], P[pr[:, 1]], tol)
-        hits.append(np.sort(np.stack([J[pr[hit, 0]], J[pr[hit, 1]]], axis=1), axis=1))
+    for s in range(0, len(ta), _PAIR_CHUNK):
+        a, b = ta[s:s + _PAIR_CHUNK], tb[s:s + _PAIR_CHUNK]
+        hit = _triangles_cross(P[a], P[b], tol)
+        hits.append(np.sort(np.stack([J[a[hit]], J[b[hit]]], axis=1), axis=1))
     if not hits:
         return empty
     out = np.concatenate(hits)
@@ -531,30 +560,31 @@ def _intersecting_pairs(X, F, good, tol) -> np.ndarray:
 def _sphere_pairs(G, R, tol) -> np.ndarray:
     """Index pairs ``(i, j)``, ``i < j``, of spheres (centres ``G``, radii ``R``) closer than ``R_i + R_j + tol``.
 
-    Spheres up to 4 × the median radius go through one ``query_pairs``; the few larger ones query the whole tree
-    with their own radius, so one huge triangle does not widen every search.
+    The spheres are split into radius classes (up to 1.2 × the median radius, then growing by √2); each class
+    pair searches one k-d tree with the sum of the two classes' largest radii, so the search radius follows the
+    spheres' own sizes and one huge triangle does not widen every search.
     """
     r_med = float(np.median(R))
-    cap = 4.0 * r_med if r_med > 0 else float(R.max())
-    small = R <= cap
+    unit_r = 1.2 * r_med if r_med > 0 else max(float(R.max()), 1.0)
+    cls = np.maximum(np.ceil(np.log(np.maximum(R, 1e-300) / unit_r) / np.log(np.sqrt(2.0))).astype(np.int64) + 1, 0)
+    groups = [np.flatnonzero(cls == c) for c in np.unique(cls)]
+    trees = [cKDTree(G[g]) for g in groups]
+    rmax = [float(R[g].max()) for g in groups]
     found = []
-    si = np.nonzero(small)[0]
-    if len(si) > 1:
-        pr = cKDTree(G[si]).query_pairs(2.0 * float(R[si].max()) + tol, output_type="ndarray")
-        found.append(si[pr])
-    bi = np.nonzero(~small)[0]
-    if len(bi):
-        lists = cKDTree(G).query_ball_point(G[bi], R[bi] + float(R.max()) + tol, return_sorted=False)
-        lens = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
-        a = np.repeat(bi, lens)
-        b = np.concatenate([np.asarray(x, dtype=np.int64) for x in lists]) if lens.sum() else np.zeros(0, np.int64)
-        sel = (a != b) & (small[b] | (b > a))
-        found.append(np.stack([a[sel], b[sel]], axis=1))
+    for a, (ga, ta) in enumerate(zip(groups, trees)):
+        if len(ga) > 1:
+            pr = ta.query_pairs(2.0 * rmax[a] + tol, output_type="ndarray")
+            found.append(ga[pr])
+        for b in range(a + 1, len(groups)):
+            sd = ta.sparse_distance_matrix(trees[b], rmax[a] + rmax[b] + tol, output_type="ndarray")
+            found.append(np.stack([ga[sd["i"]], groups[b][sd["j"]]], axis=1))
     if not found:
         return np.zeros((0, 2), dtype=np.int64)
-    pairs = np.sort(np.concatenate(found).astype(np.int64), axis=1)
-    d = norm(G[pairs[:, 0]] - G[pairs[:, 1]])
-    return pairs[d <= R[pairs[:, 0]] + R[pairs[:, 1]] + tol]
+    pairs = np.concatenate(found).astype(np.int64)
+    i, j = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+    D = G[i] - G[j]
+    close = np.einsum("ij,ij->i", D, D) <= (R[i] + R[j] + tol) ** 2
+    return np.stack([i[close], j[close]], axis=1)
 
 
 def _triangles_cross(P, Q, tol) -> np.ndarray:
@@ -648,19 +678,33 @@ def _inside2(x, tri, orient, tol):
 
 def _coverage(X, F, topo, Xr, Tr, L, A, o: _Options) -> tuple[float, int, float]:
     """Covered share of the reference's area, the number of uncovered regions larger than ``A``, and the share of
-    the uncovered area that lies beyond the mesh's boundary (the rest is too far from the mesh's faces)."""
+    the uncovered area that lies beyond the mesh's boundary (the rest is too far from the mesh's faces; measured
+    only when the coverage is under ``o.min_coverage``, where the report names it).
+
+    Samples within ``boundary_margin`` of the faces are covered and those beyond ``coverage_distance`` are not
+    (:meth:`TriangleIndex.within`, cheap); only the others need their closest point (on the boundary or not)."""
     S, W, spacing = _surface_samples(Xr, Tr, np.sqrt(A))  # sub-triangles with edges under √A: ≥ 4 per panel
     beyond = np.zeros(len(S), dtype=bool)
     covered = np.ones(len(S), dtype=bool)
+    far = []
     for T in _splits(X, F):  # a warped quad is two surfaces: a sample is covered only when both cover it
-        q = TriangleIndex(X, T, name="mesh").query(S, name="reference")
+        index = TriangleIndex(X, T, name="mesh")
+        rest = np.flatnonzero(~index.within(S, o.boundary_margin * L, name="reference"))  # the others: covered
+        reach = index.within(S[rest], o.coverage_distance * L, name="reference")
+        covered[rest[~reach]] = False  # too far from every face: not covered, beyond or not
+        far.append((index, T, rest[~reach]))
+        rest = rest[reach]
+        q = index.query(S[rest], name="reference")
         d = q.distances / L
         out = _beyond_boundary(q, T, topo, len(X))
-        covered &= (d <= o.coverage_distance) & (~out | (d <= o.boundary_margin))
-        beyond |= out
+        covered[rest] &= (d <= o.coverage_distance) & (~out | (d <= o.boundary_margin))
+        beyond[rest] |= out
     total = float(W.sum())
     coverage = float(W[covered].sum()) / total if total > 0 else 1.0
     missing = float(W[~covered].sum())
+    if coverage < o.min_coverage:  # the report names the share beyond the boundary: the far samples' side too
+        for index, T, rows in far:
+            beyond[rows] |= _beyond_boundary(index.query(S[rows], name="reference"), T, topo, len(X))
     outside = float(W[~covered & beyond].sum()) / missing if missing > 0 else 0.0
     U = np.nonzero(~covered)[0]
     holes = 0

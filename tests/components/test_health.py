@@ -323,3 +323,29 @@ def test_published_component():
     assert r.coverage == pytest.approx(face_health(V, Q, ref).coverage)
     r = panel_health(grid(4))
     assert r.healthy and r.coverage == -1.0 and r.holes == 0 and len(r.unhealthy_faces) == 0
+
+
+def test_a_triangle_index_is_a_reference_too():
+    from components.core.proximity import TriangleIndex
+
+    V, F, ref = case_half()
+    a = face_health(V, F, ref)
+    b = face_health(V, F, TriangleIndex(*ref))
+    assert (a.coverage, a.holes, a.violations, a.max_distance) == (b.coverage, b.holes, b.violations, b.max_distance)
+    assert np.array_equal(a.face_defects, b.face_defects)
+
+
+def test_crossing_pairs_match_every_pair_tested():
+    """The broad phase (face spheres, then triangle spheres) loses no crossing: two crumpled layers crossing each
+    other, against the check of every pair of faces on its own."""
+    rng = np.random.default_rng(5)
+    V1, Q1 = grid(4, 4.0)
+    V2 = V1 @ np.array([[1.0, 0.0, 0.0], [0.0, 0.8, 0.6], [0.0, -0.6, 0.8]]) + [0.3, 0.2, -1.2]
+    V = np.concatenate([V1, V2]) + rng.normal(size=(2 * len(V1), 3)) * 0.2
+    Q = np.concatenate([Q1, Q1 + len(V1)])
+    bounds = dict(min_edge_ratio=0.0, min_angle=0.0, min_area_ratio=0.0, intersection_tolerance=0.0)
+    found = face_health(V, Q, **bounds).intersecting_pairs
+    expected = [(a, b) for a in range(len(Q)) for b in range(a + 1, len(Q)) if not set(Q[a]) & set(Q[b]) and
+                len(face_health(V, Q[[a, b]], **bounds).intersecting_pairs)]
+    assert len(expected) >= 5
+    assert found.tolist() == [list(e) for e in expected]

@@ -186,3 +186,47 @@ def test_polyline_bad_inputs():
     with pytest.raises(InputError, match="^polyline: a polyline needs at least 2 points, got 0$"):
         PolylineIndex(None)
     assert PolylineIndex(np.eye(3)).query([]).t.shape == (0,)
+
+
+@pytest.mark.parametrize("scale, shift", [(1.0, 0.0), (1e3, 0.0), (1e-3, 5e6)])
+def test_exact_at_every_distance_scale_and_placement(scale, shift):
+    """Points on, near and far from a soup of very unequal triangles (the grid's own cell, its ball, the coarser
+    grids and the coarsest one all answer): the exact minimum over all triangles, relative to the model's size."""
+    rng = np.random.default_rng(11)
+    V, T = random_soup(rng, t=400)
+    V[T[5]] = V[T[5]] * [40.0, 0.2, 1.0]  # a long sliver across the soup
+    on = np.einsum("pi,pij->pj", rng.dirichlet(np.ones(3), 200), V[T[rng.integers(0, len(T), 200)]])
+    P = np.concatenate([on, on + 1e-4 * rng.normal(size=on.shape), rng.uniform(-2, 2, size=(300, 3)),
+                        10.0 ** rng.uniform(0, 3, size=(100, 1)) * rng.normal(size=(100, 3))])
+    res = TriangleIndex(V * scale + shift, T).query(P * scale + shift)
+    expected = brute_force(P, V, T)
+    tol = 1e-12 if shift == 0.0 else 2e-9 / scale  # +5e6: the coordinates' own round-off
+    np.testing.assert_allclose(res.distances / scale, expected, atol=tol * (1 + expected.max()), rtol=0)
+
+
+def test_within_agrees_with_the_distances():
+    m = trimesh.creation.icosphere(subdivisions=3)
+    V, T = np.asarray(m.vertices), np.asarray(m.faces)
+    rng = np.random.default_rng(12)
+    P = rng.normal(size=(3000, 3)) * rng.uniform(0.0, 2.0, size=(3000, 1))
+    index = TriangleIndex(V, T)
+    d = index.query(P).distances
+    for r in (0.0, 0.01, 0.2, 5.0):
+        inside = index.within(P, r)
+        clear = np.abs(d - r) > 1e-12  # away from round-off at the bound
+        assert np.array_equal(inside[clear], (d <= r)[clear])
+
+
+def test_an_index_of_changed_arrays_is_a_new_index():
+    """Indexes are reused by content: changing the arrays in place and indexing them again sees the change, and the
+    first index keeps answering for the arrays it was built on."""
+    V, Q = quad_grid(4, 4)
+    T = triangulate(Q)[0]
+    first = TriangleIndex(V, T)
+    again = TriangleIndex(V.copy(), T.copy())
+    P = np.array([[0.5, 0.5, 1.0]])
+    assert again.query(P).distances[0] == first.query(P).distances[0] == 1.0
+    V[:, 2] += 0.25
+    moved = TriangleIndex(V, T)
+    assert moved.query(P).distances[0] == pytest.approx(0.75, abs=1e-12)
+    assert first.query(P).distances[0] == 1.0
