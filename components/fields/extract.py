@@ -25,8 +25,12 @@ Asia) 32(6), 2013 (tracing in the triangles' charts, robustness of the graph).
 """
 from __future__ import annotations
 
+import hashlib
+import heapq
 import logging
+import math
 import time
+from collections import OrderedDict
 from typing import NamedTuple
 
 import numpy as np
@@ -37,14 +41,14 @@ from scipy.spatial import cKDTree
 
 from components.core.blas import single_blas_thread
 from components.core.measures import corner_angles, nonconvex_faces
-from components.core.mesh import edge_topology, face_corners, face_normals, face_sizes, pad_faces
+from components.core.mesh import edge_topology, face_corners, face_normals, face_sizes, halfedges, pad_faces
 from components.core.proximity import TriangleIndex
 
 log = logging.getLogger(__name__)
 
 __all__ = ["BoundaryCurve", "Extraction", "boundary_curve", "boundary_turns", "closest_on_boundary",
-           "collapse_short_edges", "iso_segments", "put_back", "quad_mesh_from_parametrization", "relabel",
-           "relax_edge_lengths", "snap_boundary", "split_large_faces"]
+           "collapse_short_edges", "drop_keeping_manifold", "iso_segments", "put_back",
+           "quad_mesh_from_parametrization", "relabel", "relax_edge_lengths", "snap_boundary", "split_large_faces"]
 
 _TOL = 1e-9  # parameter tolerance (in grid units) for "on an iso-line"
 
@@ -248,11 +252,13 @@ def _faces_from_graph(X, N, a, b, da, db):
     """Cells of an embedded graph: half-edge walk turning to the next edge clockwise at every vertex.
 
     ``X (p, 3)`` node positions, ``N (p, 3)`` node normals, edges ``(a, b)`` with initial directions ``da`` at ``a``
-    and ``db`` at ``b``. Returns the list of cycles (node lists) and their signed areas about the normals.
+    and ``db`` at ``b``. Returns the cycles as flat arrays, one after the other: their nodes ``(h,)`` and
+    half-edges ``(h,)``, the cycles' starts and lengths ``(c,)``, and their signed areas about the normals ``(c,)``.
     """
     ne = len(a)
     if ne == 0:
-        return [], np.zeros(0), []
+        z = np.zeros(0, dtype=np.int64)
+        return z, z, z, z, np.zeros(0)
     tail = np.concatenate([a, b])  # half-edge h (< ne): a -> b; h + ne: b -> a
     dirs = np.concatenate([da, db])
     ang = _tangent_angles(dirs, N[tail])
@@ -271,38 +277,39 @@ def _faces_from_graph(X, N, a, b, da, db):
     e = end[r]
     prev = np.where(r - 1 >= s, r - 1, e - 1)
     nxt = order[prev]
-    # cycles of the permutation nxt
-    seen = np.zeros(2 * ne, dtype=bool)
-    cycles = []
-    hcycles = []
-    nxt_l = nxt.tolist()
-    tail_l = tail.tolist()
-    for h0 in range(2 * ne):
-        if seen[h0]:
-            continue
-        cyc = []
-        hs = []
-        h = h0
-        while not seen[h]:
-            seen[h] = True
-            cyc.append(tail_l[h])
-            hs.append(h)
-            h = nxt_l[h]
-        cycles.append(cyc)
-        hcycles.append(hs)
-    # signed areas, all cycles at once (each cycle's rows are summed in order, as a per-cycle sum would)
-    lens = np.fromiter((len(c) for c in cycles), dtype=np.int64, count=len(cycles))
-    flat = np.fromiter((v for c in cycles for v in c), dtype=np.int64, count=int(lens.sum()))
+    # cycles of the permutation nxt, each from its smallest half-edge (the order a walk over the half-edges in
+    # index order finds them in), as flat arrays: list ranking by pointer doubling, no per-half-edge loop
+    n = 2 * ne
+    _, comp = connected_components(sp.csr_matrix((np.ones(n), (np.arange(n), nxt)), shape=(n, n)),
+                                   directed=True, connection="weak")
+    first = np.full(int(comp.max()) + 1, n, dtype=np.int64)
+    np.minimum.at(first, comp, np.arange(n))
+    succ = np.where(nxt == first[comp], np.arange(n), nxt)  # the last half-edge of each cycle ends the list
+    dist = (succ != np.arange(n)).astype(np.int64)  # half-edges to the end of the cycle
+    while True:
+        s2 = succ[succ]
+        if np.array_equal(s2, succ):
+            break
+        dist = dist + dist[succ]
+        succ = s2
+    lens_c = np.bincount(comp)
+    rank = lens_c[comp] - 1 - dist
+    order = np.lexsort((rank, first[comp]))
+    hes = order  # half-edges, cycle by cycle, each in walking order
+    cyc_order = np.argsort(first, kind="stable")
+    lens = lens_c[cyc_order]
+    flat = tail[hes]
+    # signed areas, all cycles at once
     starts = np.cumsum(lens) - lens
-    cid = np.repeat(np.arange(len(cycles)), lens)
+    cid = np.repeat(np.arange(len(lens)), lens)
     P = X[flat]
     P = P - P[starts][cid]  # about a corner: far from the origin the products would cancel
     nxt_pos = np.arange(len(flat)) + 1
     nxt_pos[starts + lens - 1] = starts
     S = np.add.reduceat(np.cross(P, P[nxt_pos]), starts, axis=0)
     nrm = np.add.reduceat(N[flat], starts, axis=0) / lens[:, None]
-    area = np.array([0.5 * float(S[i] @ nrm[i]) for i in range(len(cycles))])
-    return cycles, area, hcycles
+    area = 0.5 * np.einsum("ij,ij->i", S, nrm)
+    return flat, hes, starts, lens, area
 
 
 class Extraction(NamedTuple):
@@ -411,12 +418,17 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     ca, cb, da, db, fwd, bwd = ca[keep], cb[keep], da[keep], db[keep], fwd[keep], bwd[keep]
     A_, B_ = remap[ca], remap[cb]
     outside = np.concatenate([bwd & ~fwd, fwd & ~bwd])
-    cycles, area, hcycles = _faces_from_graph(Vc, Nn, A_, B_, da, db)
+    flat, hes, starts, lens, area = _faces_from_graph(Vc, Nn, A_, B_, da, db)
     timings["cells"] = time.perf_counter() - t2
     t3 = time.perf_counter()
-    out_c = [bool(outside[hs].any()) for hs in hcycles]
-    faces = [c for c, s, o in zip(cycles, area, out_c) if s > 0 and not o and len(c) >= 3]
-    dropped = sum(1 for c, s, o in zip(cycles, area, out_c) if not o and (s <= 0 or len(c) < 3))
+    out_c = np.logical_or.reduceat(outside[hes], starts) if len(starts) else np.zeros(0, dtype=bool)
+    good = (area > 0) & ~out_c & (lens >= 3)
+    dropped = int(np.count_nonzero(~out_c & ((area <= 0) | (lens < 3))))
+    # the kept cells as padded rows (the last corner repeated)
+    fs, fl = starts[good], lens[good]
+    width = max(3, int(fl.max()) if len(fl) else 3)
+    j = np.minimum(np.arange(width)[None, :], fl[:, None] - 1)
+    faces = flat[fs[:, None] + j] if len(fs) else np.zeros((0, width), dtype=np.int64)
     Vout, Fout, tri_out, bary_out, grid_out = _cleanup(Vc, faces, node_tri[kn], node_bary[kn], grid[kn], Nn,
                                                        merge * h)
     timings["cleanup"] = time.perf_counter() - t3
@@ -511,7 +523,8 @@ def _contract_chains(a: np.ndarray, b: np.ndarray, kept: np.ndarray, Xn: np.ndar
 
 
 def _cleanup(Vc, faces, tri, bary, grid, Nn, r):
-    """Merge vertices closer than ``r`` (grid vertices win), drop repeated corners and degenerate faces."""
+    """Merge vertices closer than ``r`` (grid vertices win), drop repeated corners and degenerate faces (``faces``
+    padded; pinched polygons are split into their loops, see :func:`relabel`)."""
     if r > 0 and len(Vc):
         lab, rep = _merge_close(Vc, r)
         # prefer grid vertices as representatives
@@ -525,21 +538,9 @@ def _cleanup(Vc, faces, tri, bary, grid, Nn, r):
     else:
         lab = np.arange(len(Vc))
         rep = np.arange(len(Vc))
-    out = []
-    for c in faces:
-        c2 = [int(lab[v]) for v in c]
-        # remove consecutive repeats (cyclic)
-        c3 = [v for i, v in enumerate(c2) if v != c2[i - 1]] if len(c2) > 1 else c2
-        if len(c3) >= 3 and len(set(c3)) == len(c3):
-            out.append(c3)
-        elif len(c3) >= 3:
-            # a pinched polygon: split off repeated vertex loops, keep the pieces with 3+ corners
-            out.extend(_split_pinched(c3))
-    used = sorted({v for f in out for v in f})
-    new = {v: i for i, v in enumerate(used)}
-    F = pad_faces([[new[v] for v in f] for f in out]) if out else np.zeros((0, 4), dtype=np.int64)
-    idx = rep[np.asarray(used, dtype=np.int64)] if used else np.zeros(0, dtype=np.int64)
-    return Vc[idx], F, tri[idx], bary[idx], grid[idx]
+    # the merged vertices numbered by their label, standing at their representative
+    return relabel(Vc[rep], lab[faces] if len(faces) else faces, tri[rep], bary[rep], grid[rep],
+                   np.arange(len(rep)))
 
 
 def _split_pinched(c: list) -> list:
@@ -579,7 +580,28 @@ class BoundaryCurve(NamedTuple):
 
 
 def boundary_curve(V: np.ndarray, T: np.ndarray) -> BoundaryCurve:
-    """The boundary edges of the triangle mesh ``(V, T)``, each with its triangle and the corners of its ends."""
+    """The boundary edges of the triangle mesh ``(V, T)``, each with its triangle and the corners of its ends.
+
+    The last few are kept (keyed by the arrays' contents): the extraction, its relaxations and the repair ask for
+    the same surface's boundary many times. Treat the returned arrays as read-only."""
+    V = np.ascontiguousarray(V, dtype=np.float64)
+    T = np.ascontiguousarray(T, dtype=np.int64)
+    key = (V.shape, T.shape, hashlib.blake2b(V.data, digest_size=16).digest(),
+           hashlib.blake2b(T.data, digest_size=16).digest())
+    hit = _CURVES.get(key)
+    if hit is None:
+        hit = _CURVES[key] = _boundary_curve(V, T)
+        while len(_CURVES) > _CACHED:
+            _CURVES.popitem(last=False)
+    return hit
+
+
+_CACHED = 4  # boundary curves (and their segment indexes) kept
+_CURVES: OrderedDict = OrderedDict()
+_TREES: OrderedDict = OrderedDict()
+
+
+def _boundary_curve(V: np.ndarray, T: np.ndarray) -> BoundaryCurve:
     topo = edge_topology(T)
     he = np.nonzero(topo.count[topo.HE] == 1)[0]
     f, c = he // 3, he % 3
@@ -602,7 +624,20 @@ def _nearest_segments_brute(P, A, D, dd, chunk):
 
 
 _NEAR_K = 8  # segments per point first compared exactly when the boundary is indexed
-_BRUTE_PAIRS = 1 << 18  # below this many point-segment pairs every segment is compared
+_BRUTE_PAIRS = 1 << 13  # below this many point-segment pairs every segment is compared
+
+
+def _segment_index(A: np.ndarray, D: np.ndarray):
+    """k-d tree of the segment midpoints and the longest half segment, kept for the last few boundary curves."""
+    hit = _TREES.get(id(A))
+    if hit is not None and hit[0] is A:
+        return hit[1], hit[2]
+    tree = cKDTree(A + 0.5 * D)
+    half = float(0.5 * np.sqrt(np.einsum("ij,ij->i", D, D)).max())
+    _TREES[id(A)] = (A, tree, half)
+    while len(_TREES) > _CACHED:
+        _TREES.popitem(last=False)
+    return tree, half
 
 
 def _nearest_segments_indexed(P, A, D, dd, chunk):
@@ -615,8 +650,7 @@ def _nearest_segments_indexed(P, A, D, dd, chunk):
     arithmetic, so the result is the brute force's, bit for bit (the first of equal distances wins).
     """
     M = A + 0.5 * D
-    tree = cKDTree(M)
-    half = float(0.5 * np.sqrt(np.einsum("ij,ij->i", D, D)).max())
+    tree, half = _segment_index(A, D)
     scale = float(np.abs(P).max(initial=0.0) + np.abs(M).max(initial=0.0))
     best = np.empty(len(P), dtype=np.int64)
     tbest = np.empty(len(P))
@@ -653,7 +687,7 @@ def closest_on_boundary(P: np.ndarray, bc: BoundaryCurve, chunk: int = 2048):
     P = np.asarray(P, dtype=np.float64)
     D = bc.B - bc.A
     dd = np.maximum(np.einsum("ij,ij->i", D, D), 1e-300)
-    if len(P) * len(D) <= _BRUTE_PAIRS or len(D) <= _NEAR_K:
+    if len(P) * len(D) <= _BRUTE_PAIRS or len(D) <= _NEAR_K:  # the index would cost more than it saves
         best, tbest = _nearest_segments_brute(P, bc.A, D, dd, chunk)
     else:
         best, tbest = _nearest_segments_indexed(P, bc.A, D, dd, chunk)
@@ -750,7 +784,14 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
         # a face that collapses around a boundary corner (a corner of the outline between absorbed hits): the grid
         # vertex goes to the corner instead, so sharp corners of the outline survive
         sizes = face_sizes(Fc)
-        for fi in np.nonzero(sizes <= 5)[0]:
+        # only a face with a relabelled corner can collapse (faces have 3+ distinct corners): those, in order, and
+        # the later faces around a corner relabelled on the way
+        small = sizes <= 5
+        todo = np.nonzero(small & (lab[Fc] != Fc).any(axis=1))[0].tolist()
+        heapq.heapify(todo)
+        queued = set(todo)
+        while todo:
+            fi = heapq.heappop(todo)
             row = _face_list(Fc[fi])
             c = {int(lab[v]) for v in row}
             corners = [v for v in row if lab[v] == v and not grid[v] and onb[v]]
@@ -759,6 +800,10 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
                 g, v = gs[0], corners[0]
                 lab[v] = g
                 Vc[g], tri[g], bary[g] = Vc[v], tri[v], bary[v]
+                for f in np.nonzero(small & (Fc == v).any(axis=1))[0].tolist():
+                    if f > fi and f not in queued:
+                        queued.add(f)
+                        heapq.heappush(todo, f)
         # grid vertices that snapped onto the same boundary point (a convex turn of the outline) become one
         dl, drep = _merge_close(Vc, 1e-3 * h)
         if len(drep) < nv:
@@ -776,23 +821,49 @@ def snap_boundary(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndarray, 
 def relabel(Vc, Fc, tri, bary, grid, lab):
     """Apply a vertex relabelling ``lab (p,)`` to the candidate's faces, drop collapsed faces and unused vertices
     (pinched polygons are split into their loops): ``V, F, tri, bary, grid``."""
-    faces = []
-    labelled = np.asarray(lab, dtype=np.int64)[Fc].tolist() if len(Fc) else []
-    for r, k in zip(labelled, face_sizes(Fc).tolist()):
-        c = r[:k]
-        c = [v for i, v in enumerate(c) if v != c[i - 1]] if len(c) > 1 else c
-        if len(c) >= 3 and len(set(c)) == len(c):
-            faces.append(c)
-        elif len(c) >= 3:
-            faces.extend(_split_pinched(c))
-    nv = len(Vc)
-    used = sorted({v for f in faces for v in f})
-    new = np.full(nv, -1, dtype=np.int64)
+    lab = np.asarray(lab, dtype=np.int64)
+    if len(Fc) == 0:
+        idx = np.zeros(0, dtype=np.int64)
+        return Vc[idx], np.zeros((0, 4), dtype=np.int64), tri[idx], bary[idx], grid[idx]
+    # vectorized: relabel, drop repeated consecutive corners (cyclic), keep the faces with 3+ distinct corners; the
+    # few pinched polygons (a corner repeated further on) are split into their loops one by one
+    m, K = Fc.shape
+    k = face_sizes(Fc)
+    C = lab[Fc]
+    j = np.arange(K)
+    valid = j[None, :] < k[:, None]
+    prev = np.where(j[None, :] > 0, j[None, :] - 1, k[:, None] - 1)
+    keep = valid & ((C != np.take_along_axis(C, prev, axis=1)) | (k[:, None] == 1))
+    n = keep.sum(axis=1)
+    order = np.argsort(~keep, axis=1, kind="stable")
+    Cc = np.take_along_axis(C, order, axis=1)
+    inside = j[None, :] < n[:, None]
+    S = np.sort(np.where(inside, Cc, -1 - j[None, :]), axis=1)
+    dup = (S[:, 1:] == S[:, :-1]).any(axis=1) if K > 1 else np.zeros(m, dtype=bool)
+    good = (n >= 3) & ~dup
+    pinched = np.nonzero((n >= 3) & dup)[0]
+    rows = np.nonzero(good)[0]
+    pieces = [(int(r), [int(v) for v in Cc[r, :n[r]]]) for r in pinched]
+    split = [(r, i, c) for r, c in pieces for i, c in enumerate(_split_pinched(c))]
+    width = max([3] + ([int(n[rows].max())] if len(rows) else []) + [len(c) for _, _, c in split])
+    if not len(rows) and not split:
+        idx = np.zeros(0, dtype=np.int64)
+        return Vc[idx], np.zeros((0, 4), dtype=np.int64), tri[idx], bary[idx], grid[idx]
+    W = np.arange(width)
+    if width <= K:
+        G = Cc[rows, :width]
+    else:
+        G = np.concatenate([Cc[rows], np.repeat(Cc[rows, :1], width - K, axis=1)], axis=1)
+    G = np.where(W[None, :] < n[rows, None], G, G[np.arange(len(rows)), n[rows] - 1][:, None])
+    if split:
+        extra = np.asarray([c + [c[-1]] * (width - len(c)) for _, _, c in split], dtype=np.int64)
+        at = np.concatenate([rows, np.asarray([r for r, _, _ in split], dtype=np.int64)])
+        sub = np.concatenate([np.zeros(len(rows), dtype=np.int64), np.asarray([i for _, i, _ in split])])
+        G = np.concatenate([G, extra])[np.lexsort((sub, at))]
+    used = np.unique(G)
+    new = np.full(len(Vc), -1, dtype=np.int64)
     new[used] = np.arange(len(used))
-    new_l = new.tolist()
-    F = pad_faces([[new_l[v] for v in f] for f in faces]) if faces else np.zeros((0, 4), dtype=np.int64)
-    idx = np.asarray(used, dtype=np.int64)
-    return Vc[idx], F, tri[idx], bary[idx], grid[idx]
+    return Vc[used], new[G], tri[used], bary[used], grid[used]
 
 
 def _close_boundary_corners(Vc, Fc, tri, bary, grid, bc):
@@ -928,19 +999,20 @@ def boundary_turns(Vc: np.ndarray, Fc: np.ndarray):
     be = E[topo.count == 1]
     onb[be.ravel()] = True
     val = np.bincount(E.ravel(), minlength=nv)
-    nb = [[] for _ in range(nv)]
-    for a, b in be.tolist():
-        nb[a].append(b)
-        nb[b].append(a)
     fixed = onb & (val <= 2)
-    for v in np.nonzero(onb)[0]:
-        if len(nb[v]) != 2:
-            fixed[v] = True
-            continue
-        d1 = Vc[v] - Vc[nb[v][0]]
-        d2 = Vc[nb[v][1]] - Vc[v]
-        c = d1 @ d2 / max(np.linalg.norm(d1) * np.linalg.norm(d2), 1e-300)
-        fixed[v] |= c < np.cos(np.radians(30.0))
+    # each boundary vertex's two boundary neighbours, in the order of their edges (vectorized)
+    own = be.ravel()  # (a0, b0, a1, b1, ...): a's neighbour b, then b's neighbour a, edge by edge
+    other = be[:, ::-1].ravel()
+    o = np.argsort(own, kind="stable")
+    own, other = own[o], other[o]
+    deg = np.bincount(own, minlength=nv)
+    fixed |= onb & (deg != 2)
+    two = np.nonzero(onb & (deg == 2))[0]
+    first = np.searchsorted(own, two)
+    d1 = Vc[two] - Vc[other[first]]
+    d2 = Vc[other[first + 1]] - Vc[two]
+    c = np.einsum("ij,ij->i", d1, d2) / np.maximum(np.linalg.norm(d1, axis=1) * np.linalg.norm(d2, axis=1), 1e-300)
+    fixed[two] |= c < np.cos(np.radians(30.0))
     return topo, onb, fixed
 
 
@@ -950,18 +1022,27 @@ def _convex_quad(P: np.ndarray, max_angle: float = 160.0) -> bool:
     ``max_angle`` above 180° admits slightly reflex corners (a straight corner that the boundary relaxation then
     bends): every corner's turn is measured signed about the quad's mean normal.
     """
-    n = np.cross(P[2] - P[0], P[3] - P[1])
-    nn = np.linalg.norm(n)
+    p = P.tolist()  # plain floats: numpy's overhead on 3-vectors is most of the time
+    a = [p[2][j] - p[0][j] for j in range(3)]
+    b = [p[3][j] - p[1][j] for j in range(3)]
+    n = _cross3(a, b)
+    nn = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
     if nn <= 1e-300:
         return False
-    n /= nn
+    n = [x / nn for x in n]
     for i in range(4):
-        a = P[i - 1] - P[i]
-        b = P[(i + 1) % 4] - P[i]
-        ang = np.degrees(np.arctan2(np.cross(b, a) @ n, a @ b)) % 360.0  # interior angle, counter-clockwise
+        a = [p[i - 1][j] - p[i][j] for j in range(3)]
+        b = [p[(i + 1) % 4][j] - p[i][j] for j in range(3)]
+        c = _cross3(b, a)
+        ang = math.degrees(math.atan2(c[0] * n[0] + c[1] * n[1] + c[2] * n[2],
+                                      a[0] * b[0] + a[1] * b[1] + a[2] * b[2])) % 360.0  # interior, counter-clockwise
         if not 1.0 < ang < max_angle:
             return False
     return True
+
+
+def _cross3(a: list, b: list) -> list:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def split_large_faces(Vc: np.ndarray, Fc: np.ndarray, max_size: int = 5) -> np.ndarray:
@@ -988,9 +1069,11 @@ def split_large_faces(Vc: np.ndarray, Fc: np.ndarray, max_size: int = 5) -> np.n
     sizes = face_sizes(Fc)
     if len(Fc) == 0 or sizes.max() <= max_size:
         return Fc
-    out = []
-    for row, k in zip(Fc, sizes):
-        c = [int(v) for v in row[:k]]
+    big = np.nonzero(sizes > max_size)[0]
+    pieces = []  # (row, piece number, polygon): the large polygons' pieces take their place, in order
+    for r in big.tolist():
+        out = []
+        c = Fc[r, :sizes[r]].tolist()
         while len(c) > max_size:
             n = len(c)
             quads = np.asarray([[c[(i + j) % n] for j in range(4)] for i in range(n)], dtype=np.int64)
@@ -1000,7 +1083,15 @@ def split_large_faces(Vc: np.ndarray, Fc: np.ndarray, max_size: int = 5) -> np.n
             drop = {c[(best + 1) % n], c[(best + 2) % n]}
             c = [v for v in c if v not in drop]
         out.append(c)
-    return pad_faces(out)
+        pieces.extend((r, i, q) for i, q in enumerate(out))
+    small = np.nonzero(sizes <= max_size)[0]
+    width = max([3, int(sizes[small].max()) if len(small) else 3] + [len(q) for _, _, q in pieces])
+    rows = np.concatenate([Fc[small, :width],
+                           np.asarray([q + [q[-1]] * (width - len(q)) for _, _, q in pieces], dtype=np.int64)])
+    at = np.concatenate([small, np.asarray([r for r, _, _ in pieces], dtype=np.int64)])
+    sub = np.concatenate([np.zeros(len(small), dtype=np.int64),
+                          np.asarray([i for _, i, _ in pieces], dtype=np.int64)])
+    return rows[np.lexsort((sub, at))]
 
 
 _DEGENERATE = np.radians(5.0)  # corners sharper than this, or straighter than 180° minus this, are degenerate
@@ -1063,18 +1154,8 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
             fixed = fixed & ~(straight & (np.bincount(E.ravel(), minlength=nv) == 2))
         if not len(short):
             break
-        nbrs = [set() for _ in range(nv)]
-        for a, b in E.tolist():
-            nbrs[a].add(b)
-            nbrs[b].add(a)
-        sizes = face_sizes(Fc)
-        apex: dict = {}
-        for row, k in zip(Fc, sizes):
-            if k == 3:
-                c = row[:3].tolist()
-                for i in range(3):
-                    a, b = c[i], c[(i + 1) % 3]
-                    apex.setdefault((min(a, b), max(a, b)), set()).add(c[(i + 2) % 3])
+        nbrs = _neighbour_sets(E, nv, np.unique(E[short]))  # of the short edges' ends only
+        apex = _apexes(Fc, E[short])
         rank = fixed.astype(int) * 4 + onb.astype(int) * 2 + grid.astype(int)
         lab = np.arange(nv)
         touched = np.zeros(nv, dtype=bool)
@@ -1111,6 +1192,71 @@ def collapse_short_edges(Vc: np.ndarray, Fc: np.ndarray, tri: np.ndarray, bary: 
     return Vc, Fc, tri, bary, grid
 
 
+def drop_keeping_manifold(Fc: np.ndarray, topo, drop, nv: int) -> np.ndarray:
+    """``keep (m,) bool``: the faces ``drop`` removed one by one, in order, each only where afterwards no vertex has
+    more than two boundary edges (two boundary loops touching there); ``topo`` is :func:`edge_topology` of ``Fc``.
+
+    Incremental (the face counts of the removed face's edges, the boundary-edge counts of their ends): the same
+    verdicts as recounting the boundary of the remaining faces after every removal."""
+    keep = np.ones(len(Fc), dtype=bool)
+    count = topo.count.copy()
+    nb = np.bincount(topo.E[count == 1].ravel(), minlength=nv)
+    over = int(np.count_nonzero(nb > 2))
+    H, HF = halfedges(Fc)
+    first = np.searchsorted(HF, np.arange(len(Fc) + 1))
+    for f in np.asarray(drop, dtype=np.int64).tolist():
+        es = topo.HE[first[f]:first[f + 1]].tolist()
+        changed = []
+        for e in es:
+            a, b = topo.E[e].tolist()
+            count[e] -= 1
+            step = 1 if count[e] == 1 else (-1 if count[e] == 0 else 0)  # became / stopped being a boundary edge
+            if step:
+                for v in (a, b):
+                    over -= nb[v] > 2
+                    nb[v] += step
+                    over += nb[v] > 2
+                changed.append((a, b, step))
+        if over > 0:  # undo
+            for e in es:
+                count[e] += 1
+            for a, b, step in changed:
+                for v in (a, b):
+                    over -= nb[v] > 2
+                    nb[v] -= step
+                    over += nb[v] > 2
+        else:
+            keep[f] = False
+    return keep
+
+
+def _neighbour_sets(E: np.ndarray, nv: int, verts: np.ndarray) -> dict:
+    """``{v: set of neighbours}`` of the vertices ``verts`` in the graph of the edges ``E``."""
+    a = np.concatenate([E[:, 0], E[:, 1]])
+    b = np.concatenate([E[:, 1], E[:, 0]])
+    o = np.argsort(a, kind="stable")
+    ptr = np.searchsorted(a[o], np.arange(nv + 1))
+    b = b[o]
+    return {v: set(b[ptr[v]:ptr[v + 1]].tolist()) for v in np.asarray(verts).tolist()}
+
+
+def _apexes(Fc: np.ndarray, edges: np.ndarray) -> dict:
+    """``{(a, b): set of apexes}`` (``a < b``) of the triangles of ``Fc`` on the given edges (rows ``(a, b)``)."""
+    T3 = Fc[face_sizes(Fc) == 3][:, :3]
+    if not len(T3) or not len(edges):
+        return {}
+    n = int(max(Fc.max(), edges.max())) + 1
+    want = np.minimum(edges[:, 0], edges[:, 1]) * n + np.maximum(edges[:, 0], edges[:, 1])
+    out: dict = {}
+    for i in range(3):
+        a, b, c = T3[:, i], T3[:, (i + 1) % 3], T3[:, (i + 2) % 3]
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        on = np.isin(lo * n + hi, want)
+        for x, y, z in zip(lo[on].tolist(), hi[on].tolist(), c[on].tolist()):
+            out.setdefault((x, y), set()).add(z)
+    return out
+
+
 def _degenerate(ang: np.ndarray) -> np.ndarray:
     """Which corner angles (radians, :func:`corner_angles`) are sharper than 5° or straighter than 175°."""
     return (ang < _DEGENERATE) | (ang > np.pi - _DEGENERATE)
@@ -1137,13 +1283,7 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
     drop = np.nonzero((bad | nonconvex_faces(Xc, Fc)) & allb)[0]
     if not len(drop):
         return Vc, Fc, tri, bary, grid
-    keep = np.ones(len(Fc), dtype=bool)
-    for f in drop:
-        keep[f] = False
-        t = edge_topology(Fc[keep])
-        nb = np.bincount(t.E[t.count == 1].ravel(), minlength=len(Vc))
-        if np.any(nb > 2):  # a vertex where two boundary loops would touch: keep the face
-            keep[f] = True
+    keep = drop_keeping_manifold(Fc, topo, drop, len(Vc))  # a vertex where two boundary loops would touch: kept
     if keep.all():
         return Vc, Fc, tri, bary, grid
     return relabel(Vc, Fc[keep], tri, bary, grid, np.arange(len(Vc)))
@@ -1289,12 +1429,8 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
     89.3% of edges in the band; ``stretch = 2`` keeps the edge share wherever it was ≥ 90%).
     """
     topo, onb, fixed = boundary_turns(Vc, Fc)
-    faces = [_face_list(r) for r in Fc]
-    edge_faces: dict = {}
-    for fi, c in enumerate(faces):
-        for i in range(len(c)):
-            a, b = c[i], c[(i + 1) % len(c)]
-            edge_faces.setdefault((min(a, b), max(a, b)), []).append(fi)
+    faces = [r[:k] for r, k in zip(Fc.tolist(), face_sizes(Fc).tolist())]
+    edge_faces = _edge_faces(Fc, topo)
     dead = np.zeros(len(faces), dtype=bool)
     _pair_boundary_triangles(Vc, faces, edge_faces, dead)
     if _split_boundary_hexagons(Vc, faces, edge_faces, dead, onb & ~fixed, h, stretch):
@@ -1312,6 +1448,19 @@ def _merge_boundary_triangles(Vc, Fc, tri, bary, grid, bc, h, stretch=2.0):
     grid[lab[moved]] |= grid[moved]
     F = pad_faces([c for fi, c in enumerate(faces) if not dead[fi]])
     return relabel(Vc, F, tri, bary, grid, lab)
+
+
+def _edge_faces(Fc: np.ndarray, topo) -> dict:
+    """``{(a, b): [faces]}`` (``a < b``) of every edge of ``Fc``, faces in ascending order (``topo`` its
+    :func:`edge_topology`)."""
+    keys = list(map(tuple, topo.E.tolist()))
+    out = {k: ([f0] if c == 1 else [f0, f1]) for k, c, (f0, f1) in zip(keys, topo.count.tolist(), topo.EF.tolist())}
+    many = np.nonzero(topo.count > 2)[0]
+    if len(many):
+        _, HF = halfedges(Fc)
+        for e in many.tolist():
+            out[keys[e]] = HF[topo.HE == e].tolist()
+    return out
 
 
 def _boundary_slots(c: list, edge_faces: dict) -> list:
@@ -1395,13 +1544,17 @@ def _collapse_boundary_triangles(Vc, faces: list, edge_faces: dict, dead: np.nda
     lab = np.arange(nv)
     touched = np.zeros(nv, dtype=bool)
     keep, goal = [], []
+    todo = []
     for fi, c in enumerate(faces):
         if len(c) != 3 or dead[fi]:
             continue
         be = _boundary_slots(c, edge_faces)
-        if len(be) != 1:
-            continue
-        i = be[0]
+        if len(be) == 1:
+            todo.append((c, be[0]))
+    # the boundary points closest to the boundary edges' midpoints, all at once (each is the point's own)
+    mids = np.asarray([0.5 * (Vc[c[i]] + Vc[c[(i + 1) % 3]]) for c, i in todo]).reshape(-1, 3)
+    near = closest_on_boundary(mids, bc)[0] if len(todo) else mids
+    for (c, i), X_mid in zip(todo, near):
         p1, p2, g = c[i], c[(i + 1) % 3], c[(i + 2) % 3]
         if touched[p1] or touched[p2] or onb[g] or (fixed[p1] and fixed[p2]):
             continue
@@ -1409,7 +1562,7 @@ def _collapse_boundary_triangles(Vc, faces: list, edge_faces: dict, dead: np.nda
             continue
         if fixed[p2]:
             p1, p2 = p2, p1
-        X = Vc[p1] if fixed[p1] else closest_on_boundary((0.5 * (Vc[p1] + Vc[p2]))[None], bc)[0][0]
+        X = Vc[p1] if fixed[p1] else X_mid
         around = [v for v in (nbrs[p1] | nbrs[p2]) if v != p1 and v != p2]
         if np.linalg.norm(Vc[around] - X, axis=1).max() > stretch * h:
             continue

@@ -43,12 +43,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.mesh import edge_topology, face_sizes, pad_faces
+from components.core.mesh import edge_topology, face_sizes, halfedges, pad_faces
 from components.core.proximity import TriangleIndex
 from components.fields.extract import (
     boundary_curve,
     closest_on_boundary,
     collapse_short_edges,
+    drop_keeping_manifold,
     relabel,
 )
 from components.metrics.health import DEFECT_BITS, PanelHealth, face_health
@@ -61,6 +62,7 @@ _STEPS = (1.0, 0.5, 0.25, 0.1)  # fractions of the way to each smoothing target
 _RING = 8  # directions of the small tangent moves tried besides the targets
 _RADII = (0.05, 0.15, 0.3)  # their lengths, × the vertex's shortest edge
 _SWEEPS = 20  # smoothing sweeps per pass (each moves a vertex at most once; most stop after a few)
+_BATCH = 512  # vertices whose trials are scored together (bounds the temporary arrays)
 _PASSES = 4  # repair passes (each: dissolve, collapse, smooth, drop)
 _SHARP_TURN = np.radians(30.0)  # a boundary vertex where the candidate's outline turns more than this stays put
 _MARGIN = 5.0  # degrees: the smoothing keeps improving a vertex's worst corner up to the bound plus this
@@ -207,8 +209,7 @@ def repaired_candidate(V, T, Vc, Fc, tri, bary, grid, target_length: float, *, i
 
 
 def _face_lists(F: np.ndarray) -> list:
-    sizes = face_sizes(F)
-    return [row[:k].tolist() for row, k in zip(F, sizes)]
+    return [row[:k] for row, k in zip(F.tolist(), face_sizes(F).tolist())]
 
 
 def _dissolve_valence_two(Vc, Fc, tri, bary, grid):
@@ -331,16 +332,15 @@ def _rotated_edges(state, hl: PanelHealth):
     onb = np.zeros(nv, dtype=bool)
     onb[topo.E[topo.count == 1].ravel()] = True
     val = np.bincount(topo.E.ravel(), minlength=nv)
-    edges = {(int(a), int(b)) for a, b in topo.E}
-    owner = {}
-    for fi, c in enumerate(faces):
-        for i in range(len(c)):
-            owner[(c[i], c[(i + 1) % len(c)])] = fi
+    edges = set(map(tuple, topo.E.tolist()))
+    H, HF = halfedges(Fc)  # face by face, corner by corner
+    owner = dict(zip(map(tuple, H.tolist()), HF.tolist()))
     used = np.zeros(len(faces), dtype=bool)
     done = 0
     worst = np.minimum(hl.min_corner, 180.0 - hl.max_corner)
-    for f in np.argsort(worst, kind="stable").tolist():
-        if not bad[f] or sizes[f] != 4 or used[f]:
+    order = np.argsort(worst, kind="stable")
+    for f in order[bad[order] & (sizes[order] == 4)].tolist():
+        if used[f]:
             continue
         best = None
         for i in range(4):
@@ -398,9 +398,11 @@ def _split_bad_faces(state, hl: PanelHealth, min_angle: float):
         return state, 0
     faces = _face_lists(Fc)
     out, done = [], 0
+    is_bad = np.zeros(len(faces), dtype=bool)
+    is_bad[bad] = True
     for fi, c in enumerate(faces):
         k = len(c)
-        if k < 4 or fi not in set(bad.tolist()):
+        if k < 4 or not is_bad[fi]:
             out.append(c)
             continue
         N = np.cross(Vc[c] - Vc[c[0]], np.roll(Vc[c], -1, axis=0) - Vc[c[0]]).sum(axis=0)
@@ -480,13 +482,7 @@ def _drop_bad_boundary_triangles(state, hl: PanelHealth):
     cand = np.nonzero((sizes == 3) & allb & ((hl.face_defects & _SHAPE_BITS) != 0))[0]
     if not len(cand) or len(Fc) - len(cand) < 1:
         return state, 0
-    keep = np.ones(len(Fc), dtype=bool)
-    for f in cand.tolist():
-        keep[f] = False
-        t = edge_topology(Fc[keep])
-        nb = np.bincount(t.E[t.count == 1].ravel(), minlength=len(Vc))
-        if np.any(nb > 2):
-            keep[f] = True
+    keep = drop_keeping_manifold(Fc, topo, cand, len(Vc))
     if keep.all():
         return state, 0
     return relabel(Vc, Fc[keep], tri, bary, grid, np.arange(len(Vc))), int((~keep).sum())
@@ -496,61 +492,204 @@ def _drop_bad_boundary_triangles(state, hl: PanelHealth):
 # smoothing on the surface
 
 
-class _Local(NamedTuple):
-    """The faces around one vertex, indexed into its local vertex list."""
+class _Stars(NamedTuple):
+    """The faces around every vertex of a candidate (fixed topology), for batched smoothing trials."""
 
-    verts: np.ndarray  # (l,) global vertices; verts[0] is the moving one
-    corner: np.ndarray  # (c,) local vertex of each corner
-    prev: np.ndarray  # (c,) local vertex before it in its face
-    nxt: np.ndarray  # (c,) local vertex after it
-    cface: np.ndarray  # (c,) local face of each corner
-    normal: np.ndarray  # (f, 3) surface normal of each face
-    edges: np.ndarray  # (e, 2) local edges of the faces
-
-
-def _local(v: int, fs: list, faces: list, normal: np.ndarray) -> _Local:
-    verts = [v] + sorted({w for f in fs for w in faces[f]} - {v})
-    pos = {w: i for i, w in enumerate(verts)}
-    corner, prev, nxt, cface, edges = [], [], [], [], set()
-    for j, f in enumerate(fs):
-        c = [pos[w] for w in faces[f]]
-        k = len(c)
-        for i in range(k):
-            corner.append(c[i])
-            prev.append(c[i - 1])
-            nxt.append(c[(i + 1) % k])
-            cface.append(j)
-            edges.add((min(c[i], c[(i + 1) % k]), max(c[i], c[(i + 1) % k])))
-    arr = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
-    return _Local(arr(verts), arr(corner), arr(prev), arr(nxt), arr(cface), normal[fs],
-                  arr(sorted(edges)).reshape(-1, 2))
+    F: np.ndarray  # (m, k) padded faces
+    size: np.ndarray  # (m,) corners per face
+    vf_ptr: np.ndarray  # (n + 1,) CSR: the faces around vertex v are vf_face[vf_ptr[v]:vf_ptr[v + 1]] (ascending)
+    vf_face: np.ndarray
+    vf_slot: np.ndarray  # the corner of v in each of them
+    nb_ptr: np.ndarray  # (n + 1,) CSR: the neighbours of v, in the order of their edges in edge_topology
+    nb_v: np.ndarray
 
 
-def _scores(P: np.ndarray, loc: _Local):
-    """For candidate local positions ``P (s, l, 3)``: the worst corner margin (degrees; ``min(θ, 180° − θ)`` with
-    ``θ`` the corner angle, taken as ``360° − θ`` where the corner turns against its face's Newell normal, as
+def _stars(Fc: np.ndarray, topo, nv: int) -> _Stars:
+    k = face_sizes(Fc)
+    K = Fc.shape[1]
+    slot = np.tile(np.arange(K), len(Fc))
+    face = np.repeat(np.arange(len(Fc)), K)
+    ok = slot < np.repeat(k, K)
+    w, face, slot = Fc.ravel()[ok], face[ok], slot[ok]
+    order = np.lexsort((face, w))
+    vf_ptr = np.searchsorted(w[order], np.arange(nv + 1))
+    E = topo.E
+    a = np.concatenate([E[:, 0], E[:, 1]])
+    b = np.concatenate([E[:, 1], E[:, 0]])
+    e = np.concatenate([np.arange(len(E)), np.arange(len(E))])
+    o2 = np.lexsort((e, a))
+    nb_ptr = np.searchsorted(a[o2], np.arange(nv + 1))
+    return _Stars(Fc, k, vf_ptr, face[order], slot[order], nb_ptr, b[o2])
+
+
+def _segments(ptr: np.ndarray, vs: np.ndarray):
+    """Flattened CSR rows of the vertices ``vs``: ``(owner (r,), position in the CSR arrays (r,), starts (n,))``."""
+    cnt = ptr[vs + 1] - ptr[vs]
+    owner = np.repeat(np.arange(len(vs)), cnt)
+    starts = np.cumsum(cnt) - cnt
+    pos = ptr[vs][owner] + np.arange(len(owner)) - starts[owner]
+    return owner, pos, starts
+
+
+class _Corners(NamedTuple):
+    """Every corner of every face around each vertex of ``vs`` (rows grouped by vertex, then by face)."""
+
+    pair_owner: np.ndarray  # (p,) vertex (index into vs) of each (vertex, face) pair
+    pair_face: np.ndarray  # (p,) its face
+    pair_start: np.ndarray  # (n,) first pair of each vertex
+    row_pair: np.ndarray  # (r,) pair of each corner row
+    row_start: np.ndarray  # (p,) first row of each pair
+    row_owner: np.ndarray  # (r,) vertex of each row
+    vert_row_start: np.ndarray  # (n,) first row of each vertex
+    c: np.ndarray  # (r,) the corner's vertex
+    prev: np.ndarray  # (r,) the one before it in its face
+    nxt: np.ndarray  # (r,) the one after it
+    own_rows: np.ndarray  # rows whose corner is the moving vertex itself (its two edges)
+
+
+def _corners(st: _Stars, vs: np.ndarray) -> _Corners:
+    pair_owner, pos, pair_start = _segments(st.vf_ptr, vs)
+    pair_face = st.vf_face[pos]
+    k = st.size[pair_face]
+    row_pair = np.repeat(np.arange(len(pair_face)), k)
+    row_start = np.cumsum(k) - k
+    i = np.arange(len(row_pair)) - row_start[row_pair]
+    kk = k[row_pair]
+    f = pair_face[row_pair]
+    c = st.F[f, i]
+    prev = st.F[f, (i - 1) % kk]
+    nxt = st.F[f, (i + 1) % kk]
+    row_owner = pair_owner[row_pair]
+    vert_row_start = row_start[pair_start] if len(pair_start) else np.zeros(0, dtype=np.int64)
+    own_rows = np.nonzero(c == vs[row_owner])[0]
+    return _Corners(pair_owner, pair_face, pair_start, row_pair, row_start, row_owner, vert_row_start, c, prev,
+                    nxt, own_rows)
+
+
+def _batch_scores(vs: np.ndarray, Y: np.ndarray, X: np.ndarray, cn: _Corners, normal: np.ndarray):
+    """Scores of positions ``Y (n, s, 3)`` of the vertices ``vs`` (one at a time, the others where ``X`` has them):
+    the worst corner margin ``(n, s)`` over the faces around the vertex (degrees; ``min(θ, 180° − θ)`` with ``θ``
+    the corner angle, taken as ``360° − θ`` where the corner turns against its face's Newell normal, as
     :func:`components.core.measures.nonconvex_faces` has it, so reflex corners are negative; −180° for a face
-    flipped against the surface), edge lengths ``(s, e)`` and face areas ``(s, f)`` (negative when flipped)."""
-    nf = len(loc.normal)
-    O = P[:, :1]  # about the moving vertex: no cancellation far from the origin
-    pc, pp, pn = P[:, loc.corner] - O, P[:, loc.prev] - O, P[:, loc.nxt] - O
-    N = np.zeros((len(P), nf, 3))
-    np.add.at(N, (slice(None), loc.cface), np.cross(pc, pn))
+    flipped against the surface), the lengths ``(o, s)`` of the vertex's edges (rows ``cn.own_rows``: to the
+    corners before and after it in each face) and the areas ``(p, s)`` of its faces (negative when flipped)."""
+    O = Y[cn.row_owner]  # (r, s, 3): products about the moving vertex (no cancellation far from the origin)
+
+    def at(w):
+        own = (w == vs[cn.row_owner])[:, None, None]
+        return np.where(own, O, X[w][:, None, :]) - O
+
+    pc, pp, pn = at(cn.c), at(cn.prev), at(cn.nxt)
+    N = np.add.reduceat(np.cross(pc, pn), cn.row_start, axis=0)
     a, b = pp - pc, pn - pc
-    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=2), np.einsum("scj,scj->sc", a, b)))
-    convex = np.einsum("scj,scj->sc", np.cross(pc - pp, pn - pc), N[:, loc.cface]) > 0
+    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=2), np.einsum("rsj,rsj->rs", a, b)))
+    convex = np.einsum("rsj,rsj->rs", np.cross(pc - pp, pn - pc), N[cn.row_pair]) > 0
     theta = np.where(convex, ang, 360.0 - ang)
     margin = np.minimum(theta, 180.0 - theta)
-    side = np.einsum("sfj,fj->sf", N, loc.normal)
-    margin = np.where(side[:, loc.cface] > 0, margin, -180.0).min(axis=1)
-    L = np.linalg.norm(P[:, loc.edges[:, 1]] - P[:, loc.edges[:, 0]], axis=2)
+    side = np.einsum("psj,pj->ps", N, normal[cn.pair_face])
+    margin = np.minimum.reduceat(np.where(side[cn.row_pair] > 0, margin, -180.0), cn.vert_row_start, axis=0)
+    o = cn.own_rows
+    L = np.concatenate([np.linalg.norm(pp[o], axis=2), np.linalg.norm(pn[o], axis=2)])
     area = 0.5 * np.linalg.norm(N, axis=2) * np.where(side > 0, 1.0, -1.0)
     return margin, L, area
 
 
+def _trial_positions(vs: np.ndarray, X: np.ndarray, st: _Stars, cn: _Corners):
+    """Positions to try for the vertices ``vs`` (before they are put back on the surface): ``(n, t, 3)`` and which
+    are real ``(n, t)`` (a vertex without quads has no parallelogram target). Towards the mean of the neighbours,
+    the mean of the quads' parallelogram completions and the mean of the faces' centroids (without the vertex) by
+    :data:`_STEPS`, then :data:`_RING` directions × :data:`_RADII` in the tangent plane."""
+    n = len(vs)
+    x = X[vs]
+    nb_owner, nb_pos, nb_start = _segments(st.nb_ptr, vs)
+    nb = st.nb_v[nb_pos]
+    cnt = np.diff(np.r_[nb_start, len(nb)])
+    g_nb = np.add.reduceat(X[nb], nb_start, axis=0) / cnt[:, None]
+    # per face around v: its centroid without v, and the parallelogram completion of a quad
+    f = cn.pair_face
+    k = st.size[f]
+    s = st.vf_slot[_segments(st.vf_ptr, vs)[1]]
+    K = st.F.shape[1]
+    jj = np.arange(K)
+    others = (jj[None, :] < k[:, None]) & (jj[None, :] != s[:, None])
+    P = X[st.F[f]]  # (p, K, 3)
+    cent = np.zeros((len(f), 3))
+    for j in range(K):  # corners in face order, as a mean over the others would add them
+        cent = np.where(others[:, j:j + 1], cent + P[:, j], cent)
+    cent /= (k - 1)[:, None]
+    quad = k == 4
+    para = (X[st.F[f, (s + 1) % 4]] + X[st.F[f, (s + 3) % 4]]) - X[st.F[f, (s + 2) % 4]]
+    nq = np.bincount(cn.pair_owner, weights=quad, minlength=n)
+    g_para = np.zeros((n, 3))
+    g_cent = np.zeros((n, 3))
+    npair = np.diff(np.r_[cn.pair_start, len(f)])
+    for j in range(int(npair.max()) if n else 0):  # faces in ascending order per vertex, summed in that order
+        has = npair > j
+        p = np.where(has, cn.pair_start + j, 0)
+        g_cent = np.where(has[:, None], g_cent + cent[p], g_cent)
+        q = has & quad[p]
+        g_para = np.where(q[:, None], g_para + para[p], g_para)
+    g_cent /= npair[:, None]
+    g_para /= np.maximum(nq, 1)[:, None]
+    targets = np.stack([g_nb, g_para, g_cent], axis=1)  # (n, 3, 3)
+    steps = np.asarray(_STEPS)
+    Yt = x[:, None, None, :] + steps[None, None, :, None] * (targets[:, :, None, :] - x[:, None, None, :])
+    real_t = np.repeat(np.stack([np.ones(n, bool), nq > 0, np.ones(n, bool)], axis=1), len(steps), axis=1)
+    # the tangent plane: Newell-like sum over the neighbours (in edge order), the longest spoke, the shortest one
+    d = X[nb] - x[nb_owner]
+    nxt = np.arange(len(nb)) + 1
+    last = nb_start + cnt - 1
+    nxt[last] = nb_start
+    nrm = np.add.reduceat(np.cross(d, d[nxt]), nb_start, axis=0)
+    ln = np.linalg.norm(d, axis=1)
+    longest = np.maximum.reduceat(ln, nb_start)
+    first = np.full(n, len(nb))
+    hit = np.nonzero(ln == longest[nb_owner])[0]
+    np.minimum.at(first, nb_owner[hit], hit)
+    e1 = d[first]
+    e1 = e1 - nrm * np.einsum("ij,ij->i", e1, nrm)[:, None] / np.maximum(np.einsum("ij,ij->i", nrm, nrm), 1e-300)[:, None]
+    e1 /= np.maximum(np.linalg.norm(e1, axis=1), 1e-300)[:, None]
+    e2 = np.cross(nrm, e1)
+    e2 /= np.maximum(np.linalg.norm(e2, axis=1), 1e-300)[:, None]
+    r = np.minimum.reduceat(ln, nb_start)
+    ang = np.arange(_RING) * (2.0 * np.pi / _RING)
+    dirs = np.cos(ang)[None, :, None] * e1[:, None, :] + np.sin(ang)[None, :, None] * e2[:, None, :]  # (n, ring, 3)
+    rad = np.asarray(_RADII)
+    Yr = x[:, None, None, :] + (rad[None, None, :] * r[:, None, None])[..., None] * dirs[:, :, None, :]
+    Y = np.concatenate([Yt.reshape(n, -1, 3), Yr.reshape(n, -1, 3)], axis=1)
+    real = np.concatenate([real_t, np.ones((n, _RING * len(rad)), dtype=bool)], axis=1)
+    return Y, real
+
+
+def _put_on_surface(Y: np.ndarray, real: np.ndarray, on_boundary: np.ndarray, index, bc):
+    """The trial positions ``Y (n, t, 3)`` put back on the surface (on the boundary for the vertices
+    ``on_boundary``): points, triangles, barycentric coordinates. One query for all interior vertices' trials and
+    one for the boundary ones (a point's closest point does not depend on the others)."""
+    n, t = real.shape
+    pts = Y.copy()
+    tri = np.zeros((n, t), dtype=np.int64)
+    bary = np.zeros((n, t, 3))
+    for onb in (True, False):
+        sel = real & (on_boundary[:, None] == onb)
+        if not sel.any():
+            continue
+        if onb:
+            p, tr, ba = closest_on_boundary(Y[sel], bc)
+        else:
+            q = index.query(Y[sel])
+            p, tr, ba = q.points, q.faces, q.barycentric
+        pts[sel], tri[sel], bary[sel] = p, tr, ba
+    return pts, tri, bary
+
+
 def _smoothed(state, hl: PanelHealth, FN: np.ndarray, index, bc, bounds):
     """Smart smoothing of the vertices of the unhealthy faces (see the module notes): the new state and the number
-    of moves kept."""
+    of moves kept.
+
+    Batched: every sweep scores all candidate vertices' trials at once (one closest-point query); a vertex is tried
+    only while no vertex of its faces has moved in the sweep (a move takes the whole star), so its trials are
+    those of the sweep's start, and a vertex whose star did not change since it was last tried (no better trial
+    then) is not tried again: its trials would be the same."""
     Vc, Fc, tri, bary, grid = state
     min_edge_ratio, min_angle, min_area_ratio = bounds
     bad = ((hl.face_defects & _SHAPE_BITS) != 0) | _near_bounds(hl, min_angle)
@@ -558,62 +697,78 @@ def _smoothed(state, hl: PanelHealth, FN: np.ndarray, index, bc, bounds):
         return state, 0
     L_min = _SLACK * min_edge_ratio * hl.median_edge  # with room for the planarization (and the median's drift)
     A_min = _SLACK * min_area_ratio * hl.median_area
-    faces = _face_lists(Fc)
     nv = len(Vc)
-    vf: list = [[] for _ in range(nv)]
-    for fi, c in enumerate(faces):
-        for v in c:
-            vf[v].append(fi)
     topo = edge_topology(Fc)
     onb = np.zeros(nv, dtype=bool)
     onb[topo.E[topo.count == 1].ravel()] = True
     fixed = _outline_corners(Vc, topo, onb)
-    nbrs: list = [[] for _ in range(nv)]
-    for a, b in topo.E.tolist():
-        nbrs[a].append(b)
-        nbrs[b].append(a)
+    st = _stars(Fc, topo, nv)
     X, tri, bary = Vc.copy(), tri.copy(), bary.copy()
     active = np.zeros(nv, dtype=bool)
-    for f in np.nonzero(bad)[0]:
-        active[faces[f]] = True
+    sizes = face_sizes(Fc)
+    rows = np.nonzero(bad)[0]
+    active[Fc[rows][np.arange(Fc.shape[1])[None, :] < sizes[rows, None]]] = True
     active &= ~fixed
-    moved = 0
+    cand = np.nonzero(active)[0]
+    if not len(cand):
+        return state, 0
     goal = min_angle + _MARGIN
+    m0 = np.zeros(nv)
+    better = np.zeros(nv, dtype=bool)
+    new_x, new_t, new_b = np.zeros((nv, 3)), np.zeros(nv, dtype=np.int64), np.zeros((nv, 3))
+    dirty = active.copy()  # vertices whose star changed since they were last scored
+    moved = 0
     for _ in range(_SWEEPS):
-        cand = np.nonzero(active)[0]
-        if not len(cand):
-            break
-        normal = _face_normals(Fc, FN, tri)
-        locs = {v: _local(v, vf[v], faces, normal) for v in cand.tolist()}
-        cur = {v: _scores(X[locs[v].verts][None], locs[v]) for v in locs}
-        order = sorted(locs, key=lambda v: (_quantized(cur[v][0][0]), v))
-        taken = np.zeros(nv, dtype=bool)
-        any_move = False
-        # every vertex's trials at once (one closest-point query): a vertex is tried only while no vertex of its
-        # faces has moved in this sweep (a move takes the whole star), so its trials are those of the sweep's start
-        trials = _trial_batch([v for v in order if _quantized(cur[v][0][0]) < goal], X, faces, vf, nbrs, onb,
-                              index, bc)
-        for v in order:
-            if taken[v] or _quantized(cur[v][0][0]) >= min_angle + _MARGIN:
+        normal = _face_normals(Fc, FN, tri, np.unique(st.vf_face[_segments(st.vf_ptr, cand[dirty[cand]])[1]]))
+        redo = cand[dirty[cand]]
+        for ch in range(0, len(redo), _BATCH):
+            vs = redo[ch:ch + _BATCH]
+            cn = _corners(st, vs)
+            m_now, L0, A0 = _batch_scores(vs, X[vs][:, None, :], X, cn, normal)
+            m0[vs] = m_now[:, 0]
+            below = _quantized(m_now[:, 0]) < goal
+            better[vs] = False
+            if not below.any():
                 continue
-            Y, t_, b_ = trials[v]
-            loc = locs[v]
-            P = np.repeat(X[loc.verts][None], len(Y), axis=0)
-            P[:, 0] = Y
-            m0, L0, A0 = cur[v]
-            m, L, A = _scores(P, loc)
-            ok = (L >= np.minimum(L_min, L0)).all(axis=1) & (A >= np.minimum(A_min, A0)).all(axis=1)
+            ts = vs[below]
+            cn = _corners(st, ts)
+            Y, real = _trial_positions(ts, X, st, cn)
+            Y, t_, b_ = _put_on_surface(Y, real, onb[ts], index, bc)
+            m, L, A = _batch_scores(ts, Y, X, cn, normal)
+            _, Lk, Ak = _batch_scores(ts, X[ts][:, None, :], X, cn, normal)
+            Lk, Ak = Lk[:, 0], Ak[:, 0]
+            own = np.concatenate([cn.row_owner[cn.own_rows], cn.row_owner[cn.own_rows]])
+            short = np.zeros((len(ts), Y.shape[1]), dtype=bool)
+            np.logical_or.at(short, own, L < np.minimum(L_min, Lk)[:, None])
+            np.logical_or.at(short, cn.pair_owner, A < np.minimum(A_min, Ak)[:, None])
+            ok = real & ~short
             # the best worst corner, counted up to the bound plus 5°; of equals the shortest move (the net stays
             # as conjugate as it can: a long move spoils the planarity the planarization has to restore)
-            m = np.where(ok, np.minimum(_quantized(m), goal), -np.inf)
-            j = int(np.lexsort((np.linalg.norm(Y - X[v], axis=1), -m))[0])
-            if m[j] > _quantized(m0[0]):
-                X[v], tri[v], bary[v] = Y[j], t_[j], b_[j]
-                taken[loc.verts] = True
-                moved += 1
-                any_move = True
-        if not any_move:
+            mq = np.where(ok, np.minimum(_quantized(m), goal), -np.inf)
+            top = mq.max(axis=1)
+            dist = np.where(mq == top[:, None], np.linalg.norm(Y - X[ts][:, None, :], axis=2), np.inf)
+            j = np.argmin(dist, axis=1)
+            r = np.arange(len(ts))
+            better[ts] = top > _quantized(m0[ts])
+            new_x[ts], new_t[ts], new_b[ts] = Y[r, j], t_[r, j], b_[r, j]
+        dirty[:] = False
+        order = cand[np.lexsort((cand, _quantized(m0[cand])))]
+        order = order[better[order]]
+        taken = np.zeros(nv, dtype=bool)
+        went = []
+        for v in order.tolist():
+            if taken[v]:
+                continue
+            X[v], tri[v], bary[v] = new_x[v], new_t[v], new_b[v]
+            star = st.F[st.vf_face[st.vf_ptr[v]:st.vf_ptr[v + 1]]].ravel()
+            taken[star] = True
+            went.append(v)
+        if not went:
             break
+        moved += len(went)
+        went = np.asarray(went)
+        cw = _corners(st, went)
+        dirty[cw.c] = True
     return (X, Fc, tri, bary, grid), moved
 
 
@@ -628,9 +783,13 @@ def _near_bounds(hl: PanelHealth, min_angle: float) -> np.ndarray:
     return (hl.min_corner < min_angle + _MARGIN) | (hl.max_corner > 180.0 - min_angle - _MARGIN)
 
 
-def _face_normals(Fc: np.ndarray, FN: np.ndarray, tri: np.ndarray) -> np.ndarray:
+def _face_normals(Fc: np.ndarray, FN: np.ndarray, tri: np.ndarray, faces=None) -> np.ndarray:
     """Unit surface normal of every face (padded ``Fc``): the mean of the input normals under its corners (summed
-    corner by corner, in the faces' order)."""
+    corner by corner, in the faces' order); with ``faces``, only theirs (the other rows are zero)."""
+    if faces is not None:
+        out = np.zeros((len(Fc), 3))
+        out[faces] = _face_normals(Fc[faces], FN, tri)
+        return out
     k = face_sizes(Fc)
     out = FN[tri[Fc[:, 0]]]
     for j in range(1, Fc.shape[1]):
@@ -656,57 +815,3 @@ def _outline_corners(Vc, topo, onb) -> np.ndarray:
         c = d1 @ d2 / max(float(np.linalg.norm(d1) * np.linalg.norm(d2)), 1e-300)
         fixed[v] = c < np.cos(_SHARP_TURN)
     return fixed
-
-
-def _trial_points(v: int, X, faces: list, vf: list, nbrs: list) -> np.ndarray:
-    """Positions to try for vertex ``v`` (before they are put back on the surface)."""
-    targets = [X[nbrs[v]].mean(axis=0)]
-    para, cents = [], []
-    for f in vf[v]:
-        c = faces[f]
-        k = len(c)
-        i = c.index(v)
-        others = [w for w in c if w != v]
-        cents.append(X[others].mean(axis=0))
-        if k == 4:
-            para.append(X[c[(i + 1) % 4]] + X[c[(i + 3) % 4]] - X[c[(i + 2) % 4]])
-    if para:
-        targets.append(np.mean(para, axis=0))
-    targets.append(np.mean(cents, axis=0))
-    x = X[v]
-    Y = [x + t * (g - x) for g in targets for t in _STEPS]
-    # and a ring of small moves in the tangent plane (the normal of the faces around)
-    n = np.cross(X[nbrs[v]] - x, np.roll(X[nbrs[v]], -1, axis=0) - x).sum(axis=0)
-    d = X[nbrs[v]] - x
-    e1 = d[np.argmax(np.linalg.norm(d, axis=1))]
-    e1 = e1 - n * (e1 @ n) / max(float(n @ n), 1e-300)
-    e1 /= max(float(np.linalg.norm(e1)), 1e-300)
-    e2 = np.cross(n, e1)
-    e2 /= max(float(np.linalg.norm(e2)), 1e-300)
-    r = float(np.linalg.norm(d, axis=1).min())
-    for a in np.arange(_RING) * (2.0 * np.pi / _RING):
-        for t in _RADII:
-            Y.append(x + t * r * (np.cos(a) * e1 + np.sin(a) * e2))
-    return np.asarray(Y)
-
-
-def _trial_batch(vs: list, X, faces: list, vf: list, nbrs: list, onb, index, bc) -> dict:
-    """Positions to try for every vertex of ``vs``, put back on the surface (on the boundary for boundary
-    vertices): ``{v: (points, triangles, barycentric coordinates)}``. One closest-point query for all interior
-    vertices and one for the boundary ones (a point's closest point does not depend on the others)."""
-    Ys = [_trial_points(v, X, faces, vf, nbrs) for v in vs]
-    out = {}
-    for on_boundary in (True, False):
-        idx = [i for i, v in enumerate(vs) if bool(onb[v]) == on_boundary]
-        if not idx:
-            continue
-        P = np.concatenate([Ys[i] for i in idx])
-        if on_boundary:
-            pts, tri, bary = closest_on_boundary(P, bc)
-        else:
-            q = index.query(P)
-            pts, tri, bary = q.points, q.faces, q.barycentric
-        ends = np.cumsum([len(Ys[i]) for i in idx])
-        for i, b, e in zip(idx, ends - [len(Ys[i]) for i in idx], ends):
-            out[vs[i]] = (pts[b:e], tri[b:e], bary[b:e])
-    return out
