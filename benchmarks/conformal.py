@@ -191,12 +191,13 @@ def _pipeline_child(conn, case, tracer):
     from components.network.pipeline import curvature_pipeline
     from components.surfaces.samples import sample_mesh
 
-    name, res, h = case
+    name, res, h, scale, shift = case
     if res:
         V, T, _ = sample_mesh(name, res)
     else:
         V, T = read_mesh(SHARED / "libigl/inspired_mesh.obj")
         T = triangulate(T)[0]
+    V, h = V * scale + shift, h * scale
     tm = {}
     c = time.process_time()
     r = curvature_pipeline((V, T), h, offset=0.1 * h, tracer=tracer, timings=tm)
@@ -208,10 +209,11 @@ def _pipeline_child(conn, case, tracer):
 
 
 def table_curvature_pipeline(quick):
-    """pq_from_curvature_network step timings on ~5k and ~20k triangles (the network traced by
-    components.fields.streamlines when present, else by the private test tracer of tests/components); each case
-    runs in a fresh process (peak memory is its high-water mark; CPU seconds are steadier than the wall clock on
-    a shared machine)."""
+    """pq_from_curvature_network step timings on ~5k and ~20k triangles, and on a ×1000 scaled and a +5e6 translated
+    copy of the 5k wave (the same numbers up to scale: closeness / edge and offset error / d are scale-free). The
+    network is traced by components.fields.streamlines when present, else by the private test tracer of
+    tests/components; each case runs in a fresh process (peak memory is its high-water mark; CPU seconds are steadier
+    than the wall clock on a shared machine)."""
     import multiprocessing as mp
 
     tracer = None
@@ -227,9 +229,11 @@ def table_curvature_pipeline(quick):
           "| coverage |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     names = ("saddle", "dome", "wave", "canopy")
-    cases = [(n, 60, 2.0) for n in names] + ([] if quick else [(n, 120, 1.5) for n in names])
+    cases = [(n, 60, 2.0, 1.0, 0.0) for n in names] + ([] if quick else [(n, 120, 1.5, 1.0, 0.0) for n in names])
+    # the same result at every scale and placement (numbers up to scale: closeness / edge, offset error / d)
+    cases += [("wave", 60, 2.0, 1000.0, 0.0), ("wave", 60, 2.0, 1.0, 5e6)]
     if (SHARED / "libigl/inspired_mesh.obj").exists():
-        cases.append(("inspired_mesh", 0, 2.0))
+        cases.append(("inspired_mesh", 0, 2.0, 1.0, 0.0))
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
     for case in cases:
         a, b = ctx.Pipe(duplex=False)
@@ -238,8 +242,10 @@ def table_curvature_pipeline(quick):
         b.close()
         nt, tm, cpu, peak, nf, qf, ang, pl, crit, close, off, healthy, cov = a.recv()
         p.join()
-        name, _, h = case
-        print(f"| {name} | {nt} | {h:g} | {nf} | {100 * qf:.1f} | {ang:.2f} "
+        name, _, h, scale, shift = case
+        name += f" ×{scale:g}" if scale != 1 else ""
+        name += f" +{shift:g}" if shift else ""
+        print(f"| {name} | {nt} | {h * scale:g} | {nf} | {100 * qf:.1f} | {ang:.2f} "
               f"| {tm['network']:.2f} | {tm['rebuild']:.2f} | {tm.get('optimize', 0):.2f} | {tm['total']:.2f} "
               f"| {cpu:.2f} | {peak:.0f} | {pl:.1e} | {crit:.1e} | {close:.3f} | {off:.1e} | {healthy} | {cov:.3f} |",
               flush=True)

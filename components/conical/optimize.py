@@ -14,7 +14,8 @@ the tolerance reached **and** the panels healthy by :func:`components.metrics.he
 (20° corners, edges 0.2 × the median, faces 0.1 × the median area, no folds or crossings; with a reference also 85%
 coverage of it); otherwise a warning names what is wrong.
 
-Array-level: :func:`conical_mesh`. Published: :func:`optimize` (``conical/optimize``).
+Array-level: :func:`conical_mesh` (and :func:`conical_solve`, the same without the health verdict, for a caller
+that judges the result itself). Published: :func:`optimize` (``conical/optimize``).
 """
 from __future__ import annotations
 
@@ -34,8 +35,10 @@ log = logging.getLogger(__name__)
 
 __all__ = [
     "ConicalMesh",
+    "ConicalSolve",
     "OptimizeResult",
     "conical_mesh",
+    "conical_solve",
     "optimize",
 ]
 
@@ -116,6 +119,63 @@ def conical_mesh(V, F, reference=None, *, closeness_weight: float = 1.0, fairnes
     :mod:`components.planarize.planarizer`).
     """
     tol = check_number(tolerance, "tolerance", 0, above=True)
+    sol = conical_solve(V, F, reference, closeness_weight=closeness_weight, fairness_weight=fairness_weight,
+                        tolerance=tol, polish=polish, boundary=boundary, max_iterations=max_iterations,
+                        time_budget=time_budget, mesh_name=mesh_name, min_angle=min_angle,
+                        min_edge_ratio=min_edge_ratio, min_area_ratio=min_area_ratio, min_coverage=min_coverage)
+    health = face_health(sol.V, sol.F, reference, tolerance=tol, min_coverage=min_coverage, name=mesh_name,
+                         min_angle=min_angle, min_edge_ratio=min_edge_ratio, min_area_ratio=min_area_ratio)
+    warnings = list(sol.warnings)
+    shape = [line for line in health.violations if "not planar" not in line]
+    if shape:
+        warnings.append("panels not healthy: " + "; ".join(shape))
+    return ConicalMesh(sol.V, sol.F, sol.max_planarity, sol.max_criterion, sol.max_cone_deviation,
+                       sol.mean_closeness, sol.max_closeness, sol.mean_edge_length, sol.iterations,
+                       bool(sol.reached and health.healthy), sol.worst_corner_angle, bool(health.healthy),
+                       float(health.coverage), list(health.violations), warnings)
+
+
+class ConicalSolve(NamedTuple):
+    """Result of :func:`conical_solve`: the solver's mesh and how well it is conical (no health verdict)."""
+
+    V: np.ndarray  # (n, 3) optimized vertices
+    F: np.ndarray  # (m, k) faces (unchanged)
+    max_planarity: float
+    max_criterion: float  # max |ω1 − ω2 + ω3 − ω4| over interior valence-4 vertices, radians
+    max_cone_deviation: float  # over checked vertices, radians
+    mean_closeness: float  # model units: to the reference, else to the start positions
+    max_closeness: float
+    mean_edge_length: float
+    iterations: int
+    reached: bool  # planarity and criterion within the tolerance
+    worst_corner_angle: float  # degrees
+    warnings: list
+
+
+def conical_solve(V, F, reference=None, *, closeness_weight: float = 1.0, fairness_weight: float = 0.01,
+                  tolerance: float = 1e-4, polish: bool = True, boundary: str = "free",
+                  max_iterations: int = 100, time_budget: float = 30.0, mesh_name: str = "mesh",
+                  min_angle: float = 20.0, min_edge_ratio: float = 0.2, min_area_ratio: float = 0.1,
+                  min_coverage: float = 0.85) -> ConicalSolve:
+    """:func:`conical_mesh` without its health verdict on the result (for a caller that judges the result at its
+    own bounds anyway: one :func:`components.metrics.health.face_health` less). Same parameters; the bounds guard
+    the solver.
+
+    Returns
+    -------
+    ConicalSolve
+        ``reached`` when planarity and criterion are within ``tolerance``; the warnings of :func:`conical_mesh`
+        but the health line.
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(5, 5, 4.0, 4.0, height=lambda x, y: 0.03 * (x - 2) ** 2 + 0.02 * (y - 2) ** 2)
+    >>> sol = conical_solve(V, F)  # the grid lines of this paraboloid are nearly its curvature lines
+    >>> sol.reached, sol.max_planarity < 1e-8, sol.max_criterion < 1e-8
+    (True, True, True)
+    """
+    tol = check_number(tolerance, "tolerance", 0, above=True)
     V, F = validate_mesh(V, F, name=mesh_name)
     bounds = dict(min_angle=min_angle, min_edge_ratio=min_edge_ratio, min_area_ratio=min_area_ratio)
     res = planarize_mesh(V, F, reference, closeness_weight=closeness_weight, fairness_weight=fairness_weight,
@@ -123,7 +183,7 @@ def conical_mesh(V, F, reference=None, *, closeness_weight: float = 1.0, fairnes
                          max_iterations=max_iterations, time_budget=time_budget, mesh_name=mesh_name,
                          min_coverage=min_coverage, **bounds)
     X = res.mesh[0]
-    # the solver's verdict is at the polish tolerance: the health verdict below is at ``tolerance``
+    # the solver's verdict is at the polish tolerance: the health verdict of conical_mesh is at ``tolerance``
     warnings = [w for w in res.warnings
                 if not (polish and w.startswith("tolerance not reached")) and not w.startswith("panels not healthy")]
     _, crit = conical_criterion(X, F)
@@ -132,7 +192,6 @@ def conical_mesh(V, F, reference=None, *, closeness_weight: float = 1.0, fairnes
     max_dev = float(chk.deviation[chk.checked].max()) if chk.checked.any() else 0.0
     E = edge_topology(F).E
     L = float(np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1).mean())
-    health = face_health(X, F, reference, tolerance=tol, min_coverage=min_coverage, name=mesh_name, **bounds)
     reached = res.max_planarity <= tol and max_crit <= tol
     if not len(crit):
         warnings.append("no interior valence-4 vertex: the conical criterion constrains nothing")
@@ -142,12 +201,8 @@ def conical_mesh(V, F, reference=None, *, closeness_weight: float = 1.0, fairnes
     elif polish and (res.max_planarity > 1e-8 or max_crit > 1e-7):
         warnings.append(f"the polish stopped at planarity {res.max_planarity:.1e} / criterion {max_crit:.1e} "
                         f"({res.stop_reason}): face offsets are exact only to about planarity × edge length")
-    shape = [line for line in health.violations if "not planar" not in line]
-    if shape:
-        warnings.append("panels not healthy: " + "; ".join(shape))
-    return ConicalMesh(X, F, res.max_planarity, max_crit, max_dev, res.mean_closeness, res.max_closeness,
-                       L, res.iterations, bool(reached and health.healthy), res.worst_corner_angle, bool(health.healthy),
-                       float(health.coverage), list(health.violations), warnings)
+    return ConicalSolve(X, F, res.max_planarity, max_crit, max_dev, res.mean_closeness, res.max_closeness, L,
+                        res.iterations, bool(reached), res.worst_corner_angle, warnings)
 
 
 # ----------------------------------------------------------------------------------------------

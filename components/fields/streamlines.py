@@ -20,6 +20,7 @@ triangles by unfolding).
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 from typing import NamedTuple
@@ -253,117 +254,259 @@ class _Tracer:
               stop=None, closing: bool = True, self_distance: float = 0.0, keep_family: bool = False):
         """Trace from ``(f, z)`` along family ``fam`` in direction ``sign``; returns (points, closed).
 
-        ``stop(p, t)`` ends the line at a point; ``self_distance > 0`` ends it when it comes back (parallel) that
-        close to its own earlier points (a spiral instead of a closed loop). ``keep_family``: the field's labels are
-        global (principal directions ordered by curvature), so the line keeps family ``fam`` in every triangle and
-        stops where that family turns by more than 45° from one triangle to the next (a label jump: an umbilic).
-        The reason of the last stop is left in ``self.stop_reason``.
+        ``stop`` (a :class:`_SeparationTest`) ends the line at its first point close to a stored line;
+        ``self_distance > 0`` ends it when it comes back (parallel) that close to its own earlier points (a spiral
+        instead of a closed loop). ``keep_family``: the field's labels are global (principal directions ordered by
+        curvature), so the line keeps family ``fam`` in every triangle and stops where that family turns by more
+        than 45° from one triangle to the next (a label jump: an umbilic). The reason of the last stop is left in
+        ``self.stop_reason``.
+
+        ``self.locs`` is left with the face and face coordinate of every point (a point on an edge in the face the
+        line leaves): seeds beside the line and its extensions start from them, not from a closest-point search
+        whose choice between the two faces of an edge would be arbitrary. The RK4 steps run in scalar Python on
+        per-face constants; the two distance tests (to the stored lines and
+        to the line itself) are run vectorized on chunks of :data:`_CHUNK` points, and the line is cut at the first
+        point where one fires: the same line as testing after every step.
         """
-        own = None
         lag = 0
         if self_distance > 0:
-            own = _Grid(self_distance, parallel=math.cos(math.radians(20.0)))
             lag = int(math.ceil(3.0 * self_distance / step)) + 1
-        d = self.fvf[2 * f + fam] * sign
+        Zf, nbr, nbe, cvf, fvf, den_f = self.Zf, self.nbr, self.nbe, self.cvf, self.fvf, self.den
+        of, e1f, e2f, near = self.of, self.e1f, self.e2f, self.near
+        d = fvf[2 * f + fam] * sign
         start = self.point3(f, z)
         t0 = self.vector3(f, d)
         # a loop closes when the line comes back to its start within the closing radius, running the same way
         # (with a self distance, within it: a closed curvature line drifts a little after one turn)
         close_r = max(step, self_distance)
+        close_r2 = close_r * close_r
         min_loop = max(3.0 * step, 4.0 * close_r)
         pts = [start]
+        locs = [(f, z)]  # face and face coordinate of every point
+        self.locs = locs
+        f0, z0 = f, z
         length = 0.0
         closed = False
         stuck = 0
-        h = step
         max_iter = int(8 * max_length / step) + 10 * self.m ** 0.5 + 100
         it = 0
         self.stop_reason = "length"
         if self.near_singularity(f, start):
             self.stop_reason = "singularity"
             return pts, False
+        tested = _Tested(pts, stop, self_distance, lag)
+        reason = "length"
+        eps_stuck, eps_move = 1e-9 * step, 1e-12 * step
+        cur = -1
         while length < max_length and it < max_iter:
             it += 1
+            if f != cur:  # per-face constants
+                cur = f
+                i3 = 3 * f
+                z1, z2c = Zf[i3 + 1], Zf[i3 + 2]
+                z1r, z1i, z2r, z2i = z1.real, z1.imag, z2c.real, z2c.imag
+                den = den_f[f]
+                i6 = 6 * f + 3 * fam
+                c0, c1, c2 = cvf[i6], cvf[i6 + 1], cvf[i6 + 2]
+                fv = fvf[2 * f + fam]
             h = min(step, max_length - length)
-            k1 = self.field(f, fam, z, d)
-            k2 = self.field(f, fam, z + 0.5 * h * k1, k1)
-            k3 = self.field(f, fam, z + 0.5 * h * k2, k2)
-            k4 = self.field(f, fam, z + h * k3, k3)
+            # RK4 on the linearly interpolated field (see field())
+            zr, zi = z.real, z.imag
+            b1 = (zr * z2i - zi * z2r) / den
+            b2 = (z1r * zi - z1i * zr) / den
+            v = (1.0 - b1 - b2) * c0 + b1 * c1 + b2 * c2
+            a = abs(v)
+            if a < 1e-9:
+                v, a = fv, 1.0
+            if (v * d.conjugate()).real < 0:
+                v = -v
+            k1 = v / a
+            q = z + 0.5 * h * k1
+            zr, zi = q.real, q.imag
+            l1 = (zr * z2i - zi * z2r) / den
+            l2 = (z1r * zi - z1i * zr) / den
+            v = (1.0 - l1 - l2) * c0 + l1 * c1 + l2 * c2
+            a = abs(v)
+            if a < 1e-9:
+                v, a = fv, 1.0
+            if (v * k1.conjugate()).real < 0:
+                v = -v
+            k2 = v / a
+            q = z + 0.5 * h * k2
+            zr, zi = q.real, q.imag
+            l1 = (zr * z2i - zi * z2r) / den
+            l2 = (z1r * zi - z1i * zr) / den
+            v = (1.0 - l1 - l2) * c0 + l1 * c1 + l2 * c2
+            a = abs(v)
+            if a < 1e-9:
+                v, a = fv, 1.0
+            if (v * k2.conjugate()).real < 0:
+                v = -v
+            k3 = v / a
+            q = z + h * k3
+            zr, zi = q.real, q.imag
+            l1 = (zr * z2i - zi * z2r) / den
+            l2 = (z1r * zi - z1i * zr) / den
+            v = (1.0 - l1 - l2) * c0 + l1 * c1 + l2 * c2
+            a = abs(v)
+            if a < 1e-9:
+                v, a = fv, 1.0
+            if (v * k3.conjugate()).real < 0:
+                v = -v
+            k4 = v / a
             delta = h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
             z2 = z + delta
-            ex = self.exit(f, z, z2)
-            if ex is None:
-                z, dnew = z2, delta / abs(delta) if abs(delta) > 0 else k1
-                length += abs(delta)
+            # the first edge crossed by z → z2 (see exit())
+            zr, zi = z2.real, z2.imag
+            l1 = (zr * z2i - zi * z2r) / den
+            l2 = (z1r * zi - z1i * zr) / den
+            l0 = 1.0 - l1 - l2
+            if not (l0 < 0.0 or l1 < 0.0 or l2 < 0.0):  # inside: no crossing
+                ad = abs(delta)
+                z, dnew = z2, delta / ad if ad > 0 else k1
+                length += ad
                 d = dnew
-                p = self.point3(f, z)
+                x, y = z.real, z.imag
+                p = [of[i3] + x * e1f[i3] + y * e2f[i3], of[i3 + 1] + x * e1f[i3 + 1] + y * e2f[i3 + 1],
+                     of[i3 + 2] + x * e1f[i3 + 2] + y * e2f[i3 + 2]]
+                ploc = (f, z)
                 stuck = 0
-            else:
-                t, j, s = ex
-                moved = t * abs(delta)
+            else:  # the first edge crossed (see exit())
+                zr, zi = z.real, z.imag
+                m1 = (zr * z2i - zi * z2r) / den
+                m2 = (z1r * zi - z1i * zr) / den
+                b0 = (1.0 - m1 - m2, m1, m2)
+                b1 = (l0, l1, l2)
+                t, cmin = 2.0, -1
+                for c in range(3):
+                    if b1[c] < 0.0:
+                        a0 = max(b0[c], 0.0)
+                        tc = a0 / (a0 - b1[c])
+                        if tc < t:
+                            t, cmin = tc, c
+                j = (cmin + 1) % 3
+                jn = (j + 1) % 3
+                lj = b0[j] + t * (b1[j] - b0[j])
+                lk = b0[jn] + t * (b1[jn] - b0[jn])
+                s = lk / (lj + lk) if lj + lk > 0 else 0.5
+                s = min(max(s, 0.0), 1.0)
+                ad = abs(delta)
+                moved = t * ad
                 length += moved
-                dd = delta / abs(delta) if abs(delta) > 0 else k1
-                za = self.Zf[3 * f + j]
-                zedge = za + s * (self.Zf[3 * f + (j + 1) % 3] - za)
-                p = self.point3(f, zedge)
-                stuck = stuck + 1 if moved < 1e-9 * step else 0
-                nxt = self.cross_edge(f, j, s, dd)
-                if nxt is None:  # boundary
-                    if moved > 1e-9 * step:
+                dd = delta / ad if ad > 0 else k1
+                za = Zf[i3 + j]
+                zedge = za + s * (Zf[i3 + (j + 1) % 3] - za)
+                x, y = zedge.real, zedge.imag
+                p = [of[i3] + x * e1f[i3] + y * e2f[i3], of[i3 + 1] + x * e1f[i3 + 1] + y * e2f[i3 + 1],
+                     of[i3 + 2] + x * e1f[i3 + 2] + y * e2f[i3 + 2]]
+                ploc = (f, zedge)  # on the edge: located in the face it leaves
+                stuck = stuck + 1 if moved < eps_stuck else 0
+                g = nbr[i3 + j]
+                if g < 0:  # boundary
+                    if moved > eps_stuck:
                         pts.append(p)
-                    self.stop_reason = "boundary"
+                        locs.append(ploc)
+                    reason = "boundary"
                     break
-                f, z, d = nxt
+                # carry the edge point and the direction into the neighbour (see cross_edge())
+                jg = nbe[i3 + j]
+                ef = Zf[i3 + (j + 1) % 3] - Zf[i3 + j]
+                zga = Zf[3 * g + (jg + 1) % 3]
+                eg = Zf[3 * g + jg] - zga
+                r = eg / ef
+                r = r / abs(r)
+                f, z, d = g, zga + s * eg, dd * r
+                u, w = fvf[2 * f], fvf[2 * f + 1]
+                dc = d.conjugate()
+                k = 0 if abs((u * dc).real) >= abs((w * dc).real) else 1
                 if not keep_family:
-                    fam = self.family_in(f, d)
-                elif fam != self.family_in(f, d):
+                    fam = k
+                elif fam != k:
                     pts.append(p)
-                    self.stop_reason = "label"
+                    locs.append(ploc)
+                    reason = "label"
                     break
                 if stuck > 8:
-                    self.stop_reason = "stuck"
+                    reason = "stuck"
                     break
-                if moved <= 1e-12 * step:
+                if moved <= eps_move:
                     continue
             pts.append(p)
-            if self.near_singularity(f, p):
-                self.stop_reason = "singularity"
+            locs.append(ploc)
+            if near[f] and self.near_singularity(f, p):
+                reason = "singularity"
                 break
-            if stop is not None and stop(p, self.vector3(f, d)):
-                self.stop_reason = "separation"
-                break
+            i3f = 3 * f
+            x, y = d.real, d.imag
+            t3 = [x * e1f[i3f] + y * e2f[i3f], x * e1f[i3f + 1] + y * e2f[i3f + 1], x * e1f[i3f + 2] + y * e2f[i3f + 2]]
             if closing and length > min_loop:
                 dx, dy, dz = p[0] - start[0], p[1] - start[1], p[2] - start[2]
-                if dx * dx + dy * dy + dz * dz < close_r * close_r and (
-                        close_r == step or _dot3(self.vector3(f, d), t0) > 0.94):
+                if dx * dx + dy * dy + dz * dz < close_r2 and (close_r == step or _dot3(t3, t0) > 0.94):
+                    tested.add(len(pts) - 1, p, t3, own=False)
                     pts.append(start)
+                    locs.append((f0, z0))
                     closed = True
-                    self.stop_reason = "closed"
+                    reason = "closed"
                     break
-            if own is not None:
-                t3 = self.vector3(f, d)
-                if own.near(p, self_distance, t3):
-                    self.stop_reason = "self"
-                    break
-                if len(pts) > lag:
-                    own.add_point(pts[-lag - 1], t3)
+            if tested.add(len(pts) - 1, p, t3):  # a chunk is full: test it
+                hit = tested.check()
+                if hit is not None:
+                    self.stop_reason = hit[1]
+                    self.locs = locs[:hit[0] + 1]
+                    return pts[:hit[0] + 1], False
+        hit = tested.check()
+        if hit is not None:
+            self.stop_reason = hit[1]
+            self.locs = locs[:hit[0] + 1]
+            return pts[:hit[0] + 1], False
+        self.stop_reason = reason
         return pts, closed
 
     def walk(self, f: int, z: complex, d: complex, length: float):
-        """Straightest walk of ``length`` from ``(f, z)`` in direction ``d``; None when it leaves the mesh."""
+        """Straightest walk of ``length`` from ``(f, z)`` in direction ``d``; None when it leaves the mesh (the
+        arithmetic of :meth:`exit` and :meth:`cross_edge`, inlined)."""
+        Zf, den_f, nbr, nbe = self.Zf, self.den, self.nbr, self.nbe
         d = d / abs(d)
         left = length
         for _ in range(100000):
             z2 = z + left * d
-            ex = self.exit(f, z, z2)
-            if ex is None:
+            i3 = 3 * f
+            z1, zc = Zf[i3 + 1], Zf[i3 + 2]
+            den = den_f[f]
+            zr, zi = z2.real, z2.imag
+            l1 = (zr * zc.imag - zi * zc.real) / den
+            l2 = (z1.real * zi - z1.imag * zr) / den
+            b1 = (1.0 - l1 - l2, l1, l2)
+            if not (b1[0] < 0.0 or l1 < 0.0 or l2 < 0.0):
                 return f, z2, d
-            t, j, s = ex
-            left -= t * left
-            nxt = self.cross_edge(f, j, s, d)
-            if nxt is None:
+            zr, zi = z.real, z.imag
+            m1 = (zr * zc.imag - zi * zc.real) / den
+            m2 = (z1.real * zi - z1.imag * zr) / den
+            b0 = (1.0 - m1 - m2, m1, m2)
+            tmin, cmin = 2.0, -1
+            for c in range(3):
+                if b1[c] < 0.0:
+                    a0 = max(b0[c], 0.0)
+                    t = a0 / (a0 - b1[c])
+                    if t < tmin:
+                        tmin, cmin = t, c
+            j = (cmin + 1) % 3
+            j1 = (j + 1) % 3
+            lj = b0[j] + tmin * (b1[j] - b0[j])
+            lk = b0[j1] + tmin * (b1[j1] - b0[j1])
+            sj = lk / (lj + lk) if lj + lk > 0 else 0.5
+            sj = min(max(sj, 0.0), 1.0)
+            left -= tmin * left
+            g = nbr[i3 + j]
+            if g < 0:
                 return None
-            f, z, d = nxt
+            jg = nbe[i3 + j]
+            ef = Zf[i3 + j1] - Zf[i3 + j]
+            za = Zf[3 * g + (jg + 1) % 3]
+            eg = Zf[3 * g + jg] - za
+            r = eg / ef
+            r = r / abs(r)
+            f, z, d = g, za + sj * eg, d * r
             if left <= 1e-12 * length:
                 return f, z, d
         return None
@@ -507,54 +650,186 @@ def trace_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray
     return out
 
 
-class _Grid:
-    """Uniform hash grid of 3D polyline points with their unit tangents, for the separation tests."""
+_CHUNK = 32  # points a trace runs ahead before its distance tests run (vectorized) on them
+_BLOCK = 16  # consecutive stored points sharing a bounding box in _Points
+_LANES = np.arange(_BLOCK)
 
-    def __init__(self, cell: float, parallel: float):
-        self.cell = cell
-        self.parallel = parallel  # |cos| above which two tangents count as the same family
-        self.cells: dict = {}
 
-    def key(self, p):
-        c = self.cell
-        return (math.floor(p[0] / c), math.floor(p[1] / c), math.floor(p[2] / c))
+class _Points:
+    """Polyline points with their tangents and owners, for the separation tests: stored in blocks of
+    :data:`_BLOCK` consecutive points with a bounding box each, so that a query (many points at once, vectorized)
+    measures only the points of the blocks whose box comes close.
+
+    ``parallel``: a stored point counts only when its tangent is within the angle of the query point's (``|cos|``
+    above it); the query tangents are normalized, the stored ones are used as given.
+    """
+
+    def __init__(self, parallel: float):
+        self.parallel = parallel
+        self.n = 0
+        self.nb = 0
+        self.P = np.zeros((64, 3))
+        self.D = np.zeros((64, 3))
+        self.owner = np.zeros(64, np.int64)
+        self.box = np.zeros((8, 6))  # per block (min, -max) of its points
+        self.bstart = np.zeros(8, np.int64)
+        self.bcount = np.zeros(8, np.int64)
+
+    def __len__(self) -> int:
+        return self.n
+
+    @staticmethod
+    def _grown(a, need):
+        if need <= len(a):
+            return a
+        b = np.zeros((max(need, 2 * len(a)),) + a.shape[1:], a.dtype)
+        b[:len(a)] = a
+        return b
 
     def add(self, P: np.ndarray, owner: int = -1):
+        """Store a polyline's points with central-difference unit tangents."""
+        P = np.asarray(P, np.float64)
         D = np.zeros_like(P)
-        D[1:-1] = P[2:] - P[:-2]
-        D[0] = P[1] - P[0]
-        D[-1] = P[-1] - P[-2]
+        if len(P) > 1:
+            D[1:-1] = P[2:] - P[:-2]
+            D[0] = P[1] - P[0]
+            D[-1] = P[-1] - P[-2]
         L = np.linalg.norm(D, axis=1, keepdims=True)
         D = np.divide(D, L, out=np.zeros_like(D), where=L > 0)
-        for p, t in zip(P.tolist(), D.tolist()):
-            self.cells.setdefault(self.key(p), []).append((p, t, owner))
+        self.add_points(P, D, owner)
 
-    def add_point(self, p, t, owner: int = -1):
-        self.cells.setdefault(self.key(p), []).append((p, t, owner))
+    def add_points(self, P, D, owner=-1):
+        """Store points ``P`` (k, 3) with tangents ``D`` (k, 3) and owners (an int or (k,) ints), in that order."""
+        P = np.asarray(P, np.float64).reshape(-1, 3)
+        k = len(P)
+        if k == 0:
+            return
+        n, nb = self.n, self.n + k
+        self.P = self._grown(self.P, nb)
+        self.D = self._grown(self.D, nb)
+        self.owner = self._grown(self.owner, nb)
+        self.P[n:nb] = P
+        self.D[n:nb] = D
+        self.owner[n:nb] = owner
+        starts = np.arange(0, k, _BLOCK)
+        m = len(starts)
+        b0, b1 = self.nb, self.nb + m
+        self.box = self._grown(self.box, b1)
+        self.bstart = self._grown(self.bstart, b1)
+        self.bcount = self._grown(self.bcount, b1)
+        self.box[b0:b1, :3] = np.minimum.reduceat(P, starts, axis=0)
+        self.box[b0:b1, 3:] = -np.maximum.reduceat(P, starts, axis=0)
+        self.bstart[b0:b1] = n + starts
+        self.bcount[b0:b1] = np.diff(np.r_[starts, k])
+        self.n, self.nb = nb, b1
+
+    def hits(self, Q, r: float, Tq=None, exclude: int = -2, before=None) -> np.ndarray:
+        """Which query points ``Q`` (q, 3) have a stored point closer than ``r`` (whose tangent is parallel to the
+        query's ``Tq``, whose owner is not ``exclude``, and, with ``before`` (q,), whose owner is below the query's
+        ``before``)?"""
+        Q = np.asarray(Q, np.float64).reshape(-1, 3)
+        out = np.zeros(len(Q), bool)
+        if self.nb == 0 or len(Q) == 0:
+            return out
+        rr = r * (1.0 + 1e-9)
+        # the blocks whose box comes within rr of the query points' box: box = (lo, -hi) <= (max Q + rr, rr - min Q)
+        cand = np.flatnonzero((self.box[:self.nb] <= np.concatenate([Q.max(axis=0) + rr, rr - Q.min(axis=0)]))
+                              .all(axis=1))
+        if len(cand) == 0:
+            return out
+        if len(Q) > 1:  # the pairs (query point, block) within rr
+            B = self.box[cand]
+            x, y, z = Q[:, 0, None], Q[:, 1, None], Q[:, 2, None]
+            ov = ((B[None, :, 0] <= x + rr) & (B[None, :, 3] <= rr - x) & (B[None, :, 1] <= y + rr)
+                  & (B[None, :, 4] <= rr - y) & (B[None, :, 2] <= z + rr) & (B[None, :, 5] <= rr - z))
+            qb, cb = np.nonzero(ov)
+            if len(qb) == 0:
+                return out
+            cand = cand[cb]
+        else:
+            qb = np.zeros(len(cand), np.int64)
+        lanes = _LANES < self.bcount[cand, None]
+        pp = (self.bstart[cand, None] + _LANES)[lanes]
+        qi = np.broadcast_to(qb[:, None], lanes.shape)[lanes]
+        S, X = self.P[pp], Q[qi]
+        dx, dy, dz = X[:, 0] - S[:, 0], X[:, 1] - S[:, 1], X[:, 2] - S[:, 2]
+        m = dx * dx + dy * dy + dz * dz < r * r
+        if exclude != -2:
+            m &= self.owner[pp] != exclude
+        if before is not None:
+            m &= self.owner[pp] < np.asarray(before)[qi]
+        qi, pp = qi[m], pp[m]
+        if len(qi) == 0:
+            return out
+        if Tq is None:
+            out[qi] = True
+            return out
+        Tq = np.asarray(Tq, np.float64).reshape(-1, 3)
+        tn = np.sqrt(Tq[:, 0] * Tq[:, 0] + Tq[:, 1] * Tq[:, 1] + Tq[:, 2] * Tq[:, 2])
+        tn[tn == 0] = 1.0
+        A, B = Tq[qi] / tn[qi, None], self.D[pp]
+        par = np.abs(A[:, 0] * B[:, 0] + A[:, 1] * B[:, 1] + A[:, 2] * B[:, 2]) > self.parallel
+        out[qi[par]] = True
+        return out
 
     def near(self, p, r: float, t=None, exclude: int = -2) -> bool:
         """Is a stored point closer than ``r`` to ``p`` (among those whose tangent is parallel to ``t``, not
         belonging to line ``exclude``)?"""
-        r2 = r * r
-        if t is not None:
-            tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]) or 1.0
-            t = (t[0] / tn, t[1] / tn, t[2] / tn)
-        # only the cells that meet the box [p - r, p + r] (widened a hair against rounding) can hold a point
-        # closer than r: 1-2 cells per axis instead of 3
-        c, rr = self.cell, r * (1.0 + 1e-9)
-        x, y, z = p[0], p[1], p[2]
-        cells = self.cells
-        for i in range(math.floor((x - rr) / c), math.floor((x + rr) / c) + 1):
-            for j in range(math.floor((y - rr) / c), math.floor((y + rr) / c) + 1):
-                for k in range(math.floor((z - rr) / c), math.floor((z + rr) / c) + 1):
-                    for q, tq, owner in cells.get((i, j, k), ()):
-                        if owner == exclude:
-                            continue
-                        dx, dy, dz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
-                        if dx * dx + dy * dy + dz * dz < r2:
-                            if t is None or abs(t[0] * tq[0] + t[1] * tq[1] + t[2] * tq[2]) > self.parallel:
-                                return True
-        return False
+        return bool(self.hits(np.asarray(p, np.float64)[None], r, None if t is None else [t], exclude)[0])
+
+
+class _Tested:
+    """The points of one trace waiting for their distance tests (to the stored lines, ``stop``, and to the line
+    itself), run vectorized on :data:`_CHUNK` points at a time; see :meth:`_Tracer.trace`."""
+
+    def __init__(self, pts: list, stop, self_distance: float, lag: int):
+        self.pts = pts
+        self.stop = stop
+        self.r_self = self_distance
+        self.lag = lag
+        self.own = _Points(math.cos(math.radians(20.0))) if self_distance > 0 else None
+        self.idx, self.P, self.T, self.self_tested = [], [], [], []
+        self.seq = 0  # tested points before the pending ones
+
+    def add(self, i: int, p, t, own: bool = True) -> bool:
+        """Point ``pts[i] = p`` with tangent ``t`` waits for its tests (``own``: the self test too); True when a
+        chunk is full."""
+        self.idx.append(i)
+        self.P.append(p)
+        self.T.append(t)
+        self.self_tested.append(own)
+        return len(self.idx) >= _CHUNK
+
+    def check(self):
+        """Run the pending tests: ``(index in the line, reason)`` of the first point where one fires, or None."""
+        n = len(self.idx)
+        if n == 0 or (self.stop is None and self.own is None):
+            return None
+        P = np.array(self.P)
+        T = np.array(self.T)
+        first, why = n, None
+        if self.stop is not None:
+            hit = self.stop.hits(P, T)
+            if hit.any():
+                first, why = int(np.argmax(hit)), "separation"
+        if self.own is not None:
+            idx = np.array(self.idx)
+            own_t = np.array(self.self_tested)
+            seq = self.seq + np.arange(n)
+            # the own points of this chunk first (pts[i - lag] with the tangent at i, stored after the test at i:
+            # a point sees those of the earlier points only)
+            sel = own_t & (idx >= self.lag)
+            if sel.any():
+                self.own.add_points(np.array([self.pts[i] for i in (idx[sel] - self.lag).tolist()]), T[sel],
+                                    seq[sel])
+            hit = self.own.hits(P[:first], self.r_self, T[:first], before=seq[:first]) & own_t[:first]
+            if hit.any():
+                first, why = int(np.argmax(hit)), "self"
+        if why is not None:
+            return self.idx[first], why
+        self.seq += n
+        self.idx, self.P, self.T, self.self_tested = [], [], [], []
+        return None
 
 
 def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray, family: int = 0,
@@ -621,7 +896,8 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     -----
     Jobard & Lefer 1997 with geodesic offsets: candidate seeds are reached from the points of an accepted line by
     a straightest walk of length ``separation`` perpendicular to the line within the surface; a candidate is used
-    when no line of the family is closer than ``separation``. Distances are Euclidean in 3D (hash grid).
+    when no line of the family is closer than ``separation``. Distances are Euclidean in 3D (the stored points in
+    blocks of consecutive points with bounding boxes; a trace runs a few steps ahead and tests them together).
 
     Example
     -------
@@ -641,22 +917,49 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     ratio, extend_ratio = _separation_ratios(test_ratio, extend_ratio)
     h0 = _mean_edge(V, T)
     step = min(0.25 * sep, 0.5 * h0) if step is None else check_number(step, "step", 0, above=True)
-    fr = face_frames(V, T)
-    _check_point_budget(float(fr.area.sum()), sep, step)
+    area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
+    _check_point_budget(area, sep, step)
     radius = max(h0, 0.5 * sep) if singularity_radius is None else check_number(singularity_radius,
                                                                                  "singularity_radius", 0, above=True)
-    tr = _Tracer(V, T, U, W, _singular_setup(V, T, U, W, singularities, radius), radius)
+    tr, cover = _prepared(V, T, U, W, singularities, radius, sep)
+    fr = tr.fr
     max_length = 4.0 * float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) + 10 * sep
     # a line keeps its distance from lines within 45° of its direction: its own family (the other one is at 90°),
     # also where lines of one family converge at an angle (into an umbilic)
-    grid = _Grid(ratio * sep, parallel=math.cos(math.radians(45.0)))  # cells of the test distance: few points to scan
+    grid = _Points(parallel=math.cos(math.radians(45.0)))
     sd = _Seeding(tr, grid, sep, ratio * sep, step, max_length, labelled, both, min_length)
-    lines, reasons, line_fam = _seed_lines(sd, _first_seeds(tr, fr, seeds, fam), _cover_faces(fr, sep), fam)
+    lines, reasons, line_fam, locs = _seed_lines(sd, _first_seeds(tr, fr, seeds, fam), cover, fam)
     if extend_ratio > 0 and lines:
-        _extend_ends(tr, lines, reasons, line_fam, grid, extend_ratio * sep, step, max_length, labelled)
+        _extend_ends(tr, lines, reasons, line_fam, grid, extend_ratio * sep, step, max_length, labelled, locs)
     if diagnostics is not None:
         diagnostics["end_reasons"] = [tuple(r) for r in reasons]
     return lines
+
+
+_PREPARED: dict = {}  # the last tracer built (and its cover faces), by the digest of its inputs
+
+
+def _digest(a) -> tuple:
+    a = np.ascontiguousarray(a)
+    return a.shape, a.dtype.str, hashlib.blake2b(a.view(np.uint8).ravel(), digest_size=16).digest()
+
+
+def _prepared(V, T, U, W, singularities, radius, sep):
+    """The tracer of a mesh and field (:class:`_Tracer`, its singularities found when not given) and the cover faces
+    at separation ``sep``: the last ones are kept, so the two families of a network (two calls on the same arrays)
+    build them once."""
+    key = (_digest(V), _digest(T), _digest(U), _digest(W),
+           None if singularities is None else _digest(np.asarray(singularities)), float(radius))
+    last = _PREPARED.get("last")
+    if last is None or last[0] != key:
+        tr = _Tracer(V, T, U, W, _singular_setup(V, T, U, W, singularities, radius), radius)
+        last = (key, tr, {})
+        _PREPARED["last"] = last
+    _, tr, covers = last
+    if sep not in covers:
+        covers.clear()
+        covers[sep] = _cover_faces(tr.fr, sep)
+    return tr, covers[sep]
 
 
 def _separation_ratios(test_ratio, extend_ratio) -> tuple[float, float]:
@@ -682,7 +985,7 @@ class _Seeding(NamedTuple):
     """What the evenly spaced seeding shares (see :func:`evenly_spaced_streamlines`)."""
 
     tr: _Tracer
-    grid: _Grid  # points of the accepted lines, for the separation tests
+    grid: _Points  # points of the accepted lines, for the separation tests
     sep: float  # separation
     d_test: float  # a line stops this close to another one of its family
     step: float
@@ -693,14 +996,14 @@ class _Seeding(NamedTuple):
 
 
 class _SeparationTest:
-    """``stop(p, t)`` for :meth:`_Tracer.trace`: a stored point closer than ``r`` with a parallel tangent (not of
-    line end ``exclude``)."""
+    """The ``stop`` test of :meth:`_Tracer.trace`: which points have a stored point closer than ``r`` with a
+    parallel tangent (not of line end ``exclude``)."""
 
-    def __init__(self, grid: _Grid, r: float, exclude: int = -2):
+    def __init__(self, grid: _Points, r: float, exclude: int = -2):
         self.grid, self.r, self.exclude = grid, r, exclude
 
-    def __call__(self, p, t) -> bool:
-        return self.grid.near(p, self.r, t, exclude=self.exclude)
+    def hits(self, P, T) -> np.ndarray:
+        return self.grid.hits(P, self.r, T, exclude=self.exclude)
 
 
 def _first_seeds(tr: _Tracer, fr, seeds, fam: int) -> list:
@@ -708,7 +1011,8 @@ def _first_seeds(tr: _Tracer, fr, seeds, fam: int) -> list:
     if seeds is None:
         f0 = int(np.argmin(np.linalg.norm(fr.centroid - fr.centroid.mean(axis=0), axis=1)))
         return [(f0, (tr.corner(f0, 1) + tr.corner(f0, 2)) / 3.0, fam)]
-    faces, B = _seed_locations(seeds, tr.V, tr.T, tr.index)
+    located = isinstance(seeds, tuple) and len(seeds) == 2  # faces and barycentric coordinates: no search
+    faces, B = _seed_locations(seeds, tr.V, tr.T, None if located else tr.index)
     return [(f, b[1] * tr.corner(f, 1) + b[2] * tr.corner(f, 2), fam) for f, b in zip(faces.tolist(), B.tolist())]
 
 
@@ -730,30 +1034,62 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
     """Jobard–Lefer seeding: trace a line from every queued seed that is not too close to an accepted line, queue
     new seeds beside each accepted line, fall back to the cover faces when the queue runs dry.
 
-    Returns the lines, why each line's start and end stopped, and the family at each line's seed.
+    The queue is kept free of seeds too close to an accepted line (tested together, vectorized, whenever a line
+    is accepted: lines are only ever added, so a seed too close once stays too close).
+
+    Returns the lines, why each line's start and end stopped, the family at each line's seed and the face and face
+    coordinate of every line point.
     """
     tr, grid, sep = sd.tr, sd.grid, sd.sep
     stop = _SeparationTest(grid, sd.d_test)
+    r_seed = sep * 0.999
     lines: list[np.ndarray] = []
     reasons: list[list[str]] = []
     line_fam: list[int] = []
+    line_locs: list[list] = []
+
+    def entries(seeds):  # (f, z, k, point, tangent), seeds near a singularity left out
+        out = []
+        for f, z, k in seeds:
+            p0 = tr.point3(f, z)
+            if not tr.near_singularity(f, p0):
+                out.append((f, z, k, p0, tr.vector3(f, tr.face_vector(f, k))))
+        return out
+
+    def usable(q):  # the seeds not too close to an accepted line
+        if not q or not len(grid):
+            return q
+        near = grid.hits([e[3] for e in q], r_seed, [e[4] for e in q]).tolist()
+        return [e for e, n in zip(q, near) if not n]
+
+    queue = usable(entries(queue))
+    head = 0
+    u = tr.face_vec[:, fam]
+    cover_tan = tr.fr.e1 * u.real[:, None] + tr.fr.e2 * u.imag[:, None]  # = vector3(f, face_vector(f, fam))
+    cover = np.asarray(cover, np.int64)
     cover_pos = 0
     total = 0
     while True:
-        if not queue:
-            while cover_pos < len(cover):
-                f = cover[cover_pos]
-                cover_pos += 1
-                if not grid.near(tr.fr.centroid[f].tolist(), sep, tr.vector3(f, tr.face_vector(f, fam))):
-                    queue.append((f, (tr.corner(f, 1) + tr.corner(f, 2)) / 3.0, fam))
-                    break
-            if not queue:
+        if head >= len(queue):
+            queue, head = [], 0
+            while cover_pos < len(cover):  # the next cover face with no accepted line within sep
+                fs = cover[cover_pos:cover_pos + 256]
+                near = grid.hits(tr.fr.centroid[fs], sep, cover_tan[fs])
+                if near.all():
+                    cover_pos += len(fs)
+                    continue
+                i = int(np.argmin(near))
+                cover_pos += i + 1
+                f = int(fs[i])
+                queue = usable(entries([(f, (tr.corner(f, 1) + tr.corner(f, 2)) / 3.0, fam)]))
                 break
-        f, z, k = queue.pop(0)
-        p0 = tr.point3(f, z)
-        if grid.near(p0, sep * 0.999, tr.vector3(f, tr.face_vector(f, k))) or tr.near_singularity(f, p0):
-            continue
-        line, why = _trace_both_ways(sd, f, z, k, stop)
+            if not queue:
+                if cover_pos >= len(cover):
+                    break
+                continue
+        f, z, k = queue[head][:3]
+        head += 1
+        line, why, locs = _trace_both_ways(sd, f, z, k, stop)
         if len(line) < 2:
             continue
         arr = np.asarray(line)
@@ -761,6 +1097,7 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
         if seg.sum() < max(sd.min_length, 1e-12 * sep):  # relative: the same at any scale
             continue
         lines.append(arr)
+        line_locs.append(locs)
         reasons.append(list(why))
         line_fam.append(k)
         _add_line(grid, arr, len(lines) - 1, 3.0 * sd.d_test)
@@ -768,47 +1105,51 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
         if total > _MAX_POINTS:
             log.warning("evenly_spaced_streamlines: point budget reached, stopping")
             break
-        queue += _offset_seeds(sd, arr, seg, k)
-    return lines, reasons, line_fam
+        queue = usable(queue[head:] + entries(_offset_seeds(sd, arr, seg, k, locs)))
+        head = 0
+    return lines, reasons, line_fam, line_locs
 
 
 def _trace_both_ways(sd: _Seeding, f: int, z: complex, k: int, stop):
-    """One line through a seed, forwards then backwards, and why its start and end stopped."""
+    """One line through a seed, forwards then backwards, why its start and end stopped, and the face and face
+    coordinate of its points."""
     tr = sd.tr
     fwd, closed = tr.trace(f, z, k, 1.0, sd.step, sd.max_length, stop=stop, self_distance=sd.d_test,
                            keep_family=sd.labelled)
     why = (tr.stop_reason, tr.stop_reason)
-    line = fwd
+    line, locs = fwd, tr.locs
     if not closed:
+        floc = locs
         bwd, bclosed = tr.trace(f, z, k, -1.0, sd.step, sd.max_length, stop=stop, self_distance=sd.d_test,
                                 keep_family=sd.labelled)
         if bclosed:  # the backward half went round the loop alone: it is the whole line
-            line = bwd[::-1]
+            line, locs = bwd[::-1], tr.locs[::-1]
             why = ("closed", "closed")
         else:
-            line = bwd[::-1] + fwd[1:]
+            line, locs = bwd[::-1] + fwd[1:], tr.locs[::-1] + floc[1:]
             why = (tr.stop_reason, why[1])
-    return line, why
+    return line, why, locs
 
 
-def _offset_seeds(sd: _Seeding, arr: np.ndarray, seg: np.ndarray, k: int) -> list:
+def _offset_seeds(sd: _Seeding, arr: np.ndarray, seg: np.ndarray, k: int, line_locs: list) -> list:
     """Candidate seeds at the separation on both sides of a new line, every ~separation/2 along it (and for a net
-    the crossing family's seeds on the line itself)."""
+    the crossing family's seeds on the line itself); ``line_locs`` the face and face coordinate of its points."""
     tr, sep = sd.tr, sd.sep
     out = []
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     picks = np.searchsorted(cum, np.arange(0.0, cum[-1] + 1e-12 * sep, 0.5 * sep))
     picks = np.unique(np.minimum(picks, len(arr) - 1))
-    locs = _locate_on_line(tr, arr[picks])
-    for (lf, lz), i in zip(locs, picks.tolist()):
-        if lf < 0:
-            continue
+    starts = []  # (face, face coordinate, direction along the line) at the picked points
+    for i in picks.tolist():
+        lf, lz = line_locs[i]
         j = min(i + 1, len(arr) - 1)
         i0 = j - 1 if j > 0 else 0
         t3 = arr[j] - arr[i0]
         dz = complex(float(t3 @ tr.fr.e1[lf]), float(t3 @ tr.fr.e2[lf]))
         if abs(dz) == 0:
             continue
+        starts.append((lf, lz, dz))
+    for lf, lz, dz in starts:
         for side in (1j, -1j):
             res = tr.walk(lf, lz, dz * side, sep)
             if res is not None:
@@ -820,9 +1161,10 @@ def _offset_seeds(sd: _Seeding, arr: np.ndarray, seg: np.ndarray, k: int) -> lis
     return out
 
 
-def _extend_ends(tr, lines, reasons, line_fam, grid, d_ext, step, max_length, labelled):
+def _extend_ends(tr, lines, reasons, line_fam, grid, d_ext, step, max_length, labelled, line_locs):
     """Continue every line end stopped by the separation test until it comes within ``d_ext`` of another line
-    (or meets the boundary, a singularity, ...). Updates ``lines``, ``reasons`` and ``grid`` in place."""
+    (or meets the boundary, a singularity, ...). Updates ``lines``, ``reasons``, ``grid`` and ``line_locs`` (the
+    face and face coordinate of every line point) in place."""
     for i in range(len(lines)):
         for end in (0, 1):
             if reasons[i][end] != "separation":
@@ -832,7 +1174,7 @@ def _extend_ends(tr, lines, reasons, line_fam, grid, d_ext, step, max_length, la
             tan = pts[-1] - pts[max(len(pts) - 3, 0)]
             if not np.any(tan):
                 continue
-            (lf, lz), = _locate_on_line(tr, pts[-1:])
+            lf, lz = line_locs[i][-1] if end == 1 else line_locs[i][0]
             dz = complex(float(tan @ tr.fr.e1[lf]), float(tan @ tr.fr.e2[lf]))
             if abs(dz) == 0:
                 continue
@@ -848,6 +1190,7 @@ def _extend_ends(tr, lines, reasons, line_fam, grid, d_ext, step, max_length, la
             E = np.asarray(ext[1:])
             new = np.vstack([pts, E])
             lines[i] = new if end == 1 else new[::-1]
+            line_locs[i] = line_locs[i] + tr.locs[1:] if end == 1 else tr.locs[:0:-1] + line_locs[i]
             grid.add(np.vstack([pts[-1:], E]), owner=2 * i + end)
 
 
@@ -871,17 +1214,7 @@ def _add_line(grid, arr, i, reach):
             D[-1] = P[-1] - P[-2]
         L = np.linalg.norm(D, axis=1, keepdims=True)
         D = np.divide(D, L, out=np.zeros_like(D), where=L > 0)
-        for p, t in zip(P[keep].tolist(), D[keep].tolist()):
-            grid.add_point(p, t, owner=o)
-
-
-def _locate_on_line(tr: _Tracer, P: np.ndarray):
-    """Faces and face coordinates of points lying on the mesh (closest-point query)."""
-    res = tr.index.query(P)
-    out = []
-    for f, b in zip(res.faces.tolist(), res.barycentric.tolist()):
-        out.append((f, b[1] * tr.corner(f, 1) + b[2] * tr.corner(f, 2)))
-    return out
+        grid.add_points(P[keep], D[keep], owner=o)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -5,7 +5,8 @@ where every direction is principal, are crossed along the smoothest continuation
 around them), the quad rebuild in a conformal plane (:mod:`components.network.rebuild`, boundary and irregular
 cells healed and cells under which the surface bulges split by :mod:`components.network.healing`), conical
 analysis of the candidate, the conical optimization through the planarization solver
-(:func:`components.conical.optimize.conical_mesh`) and the face offset with its node axes
+(:func:`components.conical.optimize.conical_solve`, :func:`components.conical.optimize.conical_mesh` without its
+own health verdict: the result is judged once, at the bounds below) and the face offset with its node axes
 (:func:`components.conical.cones.face_offset`).
 
 Fabricable or it says why (project issue 16): the candidate and the result are measured with
@@ -43,7 +44,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from components.conical.cones import cone_fit, conical_criterion, face_offset
-from components.conical.optimize import conical_mesh
+from components.conical.optimize import conical_solve
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core import progress
@@ -51,13 +52,13 @@ from components.core.errors import InputError, MeshError
 from components.core.measures import max_quad_planarity
 from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
                                   triangulate)
-from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Lines, Mesh, Texts
 from components.fields.candidate import candidate_mesh
 from components.metrics.health import DEFECT_BITS, face_health
 from components.network.healing import manifold_cells
 from components.network.rebuild import BOUNDARY_CELLS, MAX_BULGE, rebuild_from_network
-from components.network.tracing import UMBILIC_REFUSAL, network_for_mesh, principal_angle_error, principal_field
+from components.network.tracing import (UMBILIC_REFUSAL, network_for_mesh, principal_angle_error, principal_field,
+                                       surface_index)
 
 log = logging.getLogger(__name__)
 
@@ -233,6 +234,7 @@ class _Outcome(NamedTuple):
     is_conical: bool
     warnings: list
     bad_faces: int  # faces with a health defect (ranks the unhealthy tries)
+    folded: str  # the fold counts of its health ("" when nothing folds)
 
 
 def _same(a: _Cand, b: _Cand) -> bool:
@@ -242,7 +244,8 @@ def _same(a: _Cand, b: _Cand) -> bool:
 def _judged(V, T, X, F, max_pl, max_crit, max_dev, close, warnings, reached) -> _Outcome:
     hh = face_health(X, F, (V, T), tolerance=TOLERANCE, **HEALTH)
     return _Outcome(X, F, max_pl, max_crit, max_dev, close, hh.healthy, hh.coverage, list(hh.violations),
-                    bool(reached and hh.healthy), warnings, int(np.count_nonzero(hh.face_defects)))
+                    bool(reached and hh.healthy), warnings, int(np.count_nonzero(hh.face_defects)),
+                    _fold_counts(hh) if _fold_mask(hh).any() else "")
 
 
 def _as_is(V, T, cand: _Cand, warnings=()) -> _Outcome:
@@ -251,7 +254,7 @@ def _as_is(V, T, cand: _Cand, warnings=()) -> _Outcome:
     pl, crit = max_quad_planarity(X, F), _max_criterion(X, F)
     fit = cone_fit(X, F)
     dev = float(fit.deviation.max()) if len(fit.deviation) else 0.0
-    close = float(TriangleIndex(V, T).query(X).distances.mean())
+    close = float(surface_index(V, T).query(X).distances.mean())
     return _judged(V, T, X, F, pl, crit, dev, close, list(warnings), pl <= TOLERANCE and crit <= TOLERANCE)
 
 
@@ -261,18 +264,15 @@ def _finished(V, T, cand: _Cand, optimize, closeness_weight, budget, t) -> _Outc
     if not optimize:
         return _as_is(V, T, cand)
     t2 = time.perf_counter()
-    opt = conical_mesh(cand.V, cand.F, (V, T), closeness_weight=closeness_weight, time_budget=max(budget, 1e-3),
-                       tolerance=TOLERANCE, mesh_name="candidate", **GUARD)
+    # judged once below at HEALTH (conical_mesh would judge it at GUARD too)
+    opt = conical_solve(cand.V, cand.F, (V, T), closeness_weight=closeness_weight, time_budget=max(budget, 1e-3),
+                        tolerance=TOLERANCE, mesh_name="candidate", **GUARD)
     t["optimize"] += time.perf_counter() - t2
-    warnings = [w for w in opt.warnings if not w.startswith("panels not healthy")]
-    reached = opt.max_planarity <= TOLERANCE and opt.max_criterion <= TOLERANCE
+    warnings = list(opt.warnings)
     out = _judged(V, T, opt.V, opt.F, opt.max_planarity, opt.max_criterion, opt.max_cone_deviation,
-                  opt.mean_closeness, warnings, reached)
-    if out.healthy:
-        return out
-    hh = face_health(opt.V, opt.F, (V, T), tolerance=TOLERANCE, **HEALTH)
-    if _fold_mask(hh).any():  # never a folded mesh: back to the (unfolded) candidate
-        warnings.append(f"the conical optimization folded the mesh ({_fold_counts(hh)} faces); the candidate is "
+                  opt.mean_closeness, warnings, opt.reached)
+    if out.folded:  # never a folded mesh: back to the (unfolded) candidate
+        warnings.append(f"the conical optimization folded the mesh ({out.folded} faces); the candidate is "
                         "returned unoptimized")
         return _as_is(V, T, cand, warnings)
     return out

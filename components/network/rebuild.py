@@ -41,6 +41,7 @@ parametrization and turned into a quad-dominant mesh).
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 from typing import NamedTuple
@@ -53,10 +54,9 @@ from components.core.checks import check_choice, check_number
 from components.core.conformal import check_disk, disk_map, lscm
 from components.core.errors import MeshError
 from components.core.mesh import boundary_loops, edge_topology, face_sizes, pad_faces
-from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Mesh, Numbers
 from components.network.healing import NODE_BOUNDARY, NODE_CORNER, NODE_CROSSING, healed_cells, manifold_cells
-from components.network.tracing import network_for_mesh, principal_angle_error
+from components.network.tracing import network_for_mesh, principal_angle_error, surface_index
 
 log = logging.getLogger(__name__)
 
@@ -111,6 +111,21 @@ def plane_map(V: np.ndarray, T: np.ndarray, method: str = "lscm") -> tuple[np.nd
         No boundary, several boundary loops or handles (not a disk), several components (named ``mesh``).
     """
     check_choice(method, "method", PLANE_MAPS)
+    key = (method,) + tuple((a.shape, hashlib.blake2b(np.ascontiguousarray(a).view(np.uint8).ravel(),
+                                                      digest_size=16).digest())
+                            for a in (np.asarray(V, np.float64), np.asarray(T, np.int64)))
+    last = _PLANE.get("last")
+    if last is not None and last[0] == key:  # the strategy's retries rebuild on the same surface
+        return last[1].copy(), list(last[2])
+    UV, warnings = _plane_map(V, T, method)
+    _PLANE["last"] = (key, UV.copy(), list(warnings))
+    return UV, warnings
+
+
+_PLANE: dict = {}  # the last plane map computed (plane_map)
+
+
+def _plane_map(V, T, method):
     warnings: list[str] = []
     check_disk(V, T, boundary_loops(T))
     UV = None
@@ -235,7 +250,7 @@ def network_to_plane(V, T, UV, lines, max_segment: float) -> tuple[list[np.ndarr
     if not lines:
         return [], []
     P = np.concatenate(lines)
-    cp = TriangleIndex(V, T).query(P)
+    cp = surface_index(V, T).query(P)
     Q = np.einsum("pk,pkj->pj", cp.barycentric, UV[T[cp.faces]])
     out, idx = [], []
     start = 0
@@ -450,6 +465,28 @@ def _arc_point(pts, frac=0.3):
     k = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1))
     t = (s - cum[k]) / max(seg[k], 1e-300)
     return pts[k] + t * (pts[k + 1] - pts[k])
+
+
+def _arc_points(polys, frac=0.3):
+    """:func:`_arc_point` of every polyline (at least two points each), vectorized with the same arithmetic: (p, 2)."""
+    n = np.array([len(p) for p in polys], np.int64)
+    P = np.concatenate(polys)
+    first = np.r_[0, np.cumsum(n)[:-1]]
+    seg_all = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    m = n - 1  # segments per polyline
+    lane = np.arange(int(m.max()))
+    valid = lane[None, :] < m[:, None]
+    idx = np.where(valid, first[:, None] + lane[None, :], 0)
+    seg = np.where(valid, seg_all[idx], 0.0)
+    cum = np.concatenate([np.zeros((len(n), 1)), np.cumsum(seg, axis=1)], axis=1)  # row-wise: as per polyline
+    total = cum[np.arange(len(n)), m]
+    s = frac * total
+    k = np.count_nonzero((cum[:, :-1] <= s[:, None]) & valid, axis=1) - 1  # searchsorted(cum, s, "right") - 1
+    k = np.clip(k, 0, m - 1)
+    rows = np.arange(len(n))
+    t = (s - cum[rows, k]) / np.maximum(seg[rows, k], 1e-300)
+    a, b = P[first + k], P[first + k + 1]
+    return a + t[:, None] * (b - a)
 
 
 def _trace_faces(nuv, edges, dirs_out, dirs_in):
@@ -691,8 +728,8 @@ def _cells(nuv, E, polys, max_face_size):
     (counter-clockwise node lists with distinct nodes).
     """
     # directions: from each end towards a point 30% along its polyline (after merging, from the merged node)
-    dout = np.array([_arc_point(p, 0.3) for p in polys]) - nuv[E[:, 0]]
-    din = np.array([_arc_point(p[::-1], 0.3) for p in polys]) - nuv[E[:, 1]]
+    dout = _arc_points(polys, 0.3) - nuv[E[:, 0]]
+    din = _arc_points([p[::-1] for p in polys], 0.3) - nuv[E[:, 1]]
     faces, dropped, big = [], 0, []
     for cyc in _trace_faces(nuv, E, dout, din):
         if len(cyc) < 3 or len(set(cyc)) != len(cyc):

@@ -24,7 +24,8 @@ second order and their limit is a conical mesh (Liu et al. 2006). This module
    plane patch) is refused with a clear error, since it has no curvature network to continue.
 
 Array-level: :func:`principal_field`, :func:`filled_directions`, :func:`principal_network`,
-:func:`principal_angle_error`. Published:
+:func:`principal_angle_error`, :func:`surface_index` (the design surface's closest-point index, built once for the
+strategy's steps). Published:
 :func:`curvature_network`.
 
 References
@@ -35,6 +36,7 @@ Jobard, Lefer, *Creating evenly-spaced streamlines of arbitrary density*, Visual
 """
 from __future__ import annotations
 
+import hashlib
 import inspect
 import logging
 from typing import Callable, NamedTuple
@@ -66,6 +68,7 @@ __all__ = [
     "principal_angle_error",
     "principal_field",
     "principal_network",
+    "surface_index",
 ]
 
 UMBILIC_MODES = ("skip", "fill")
@@ -83,6 +86,31 @@ class PrincipalField(NamedTuple):
     k2: np.ndarray  # (t,)
     anisotropy: np.ndarray  # (t,) |k1 − k2| / (|k1| + |k2| + κ0), in [0, 1)
     umbilic: np.ndarray  # (t,) bool, anisotropy below the threshold
+
+
+_INDEX: dict = {}  # the last surface index built (surface_index)
+
+
+def surface_index(V: np.ndarray, T: np.ndarray) -> TriangleIndex:
+    """The closest-point index (:class:`components.core.proximity.TriangleIndex`) of a triangle mesh; the last one
+    built is kept (by the digest of the arrays), so the steps of the strategy that query the same design surface
+    (network, rebuild, judging) build it once.
+
+    Example
+    -------
+    >>> from components.surfaces.samples import sample_mesh
+    >>> V, T, _ = sample_mesh("saddle", 8)
+    >>> surface_index(V, T) is surface_index(V.copy(), T.copy())
+    True
+    """
+    V = np.ascontiguousarray(V, np.float64)
+    T = np.ascontiguousarray(T, np.int64)
+    key = tuple((a.shape, hashlib.blake2b(a.view(np.uint8).ravel(), digest_size=16).digest()) for a in (V, T))
+    last = _INDEX.get("last")
+    if last is None or last[0] != key:
+        last = (key, TriangleIndex(V, T))
+        _INDEX["last"] = last
+    return last[1]
 
 
 def principal_field(V: np.ndarray, T: np.ndarray, umbilic_threshold: float = 0.05, radius: int = 2) -> PrincipalField:
@@ -165,7 +193,7 @@ def _tracer_options(tracer, V, T, fld, h) -> dict:
         cen = V[T].mean(axis=1)
         ok = np.flatnonzero(~fld.umbilic)
         i = ok[np.argmin(np.linalg.norm(cen[ok] - V.mean(axis=0), axis=1) / (0.5 + fld.anisotropy[ok]))]
-        out["seeds"] = cen[i][None, :]
+        out["seeds"] = (np.array([i]), np.full((1, 3), 1.0 / 3.0))  # its centroid (face, barycentric: no search)
     if "min_length" in params:
         out["min_length"] = 0.5 * h
     if "labelled" in params:  # PD1/PD2 are ordered by curvature: a global labelling, no family swaps
@@ -242,7 +270,7 @@ def _cut_umbilic(V, T, lines, umbilic, min_length):
     if not umbilic.any() or not lines:
         return lines, 0
     P = np.concatenate(lines)
-    inside = umbilic[TriangleIndex(V, T).query(P).faces]
+    inside = umbilic[surface_index(V, T).query(P).faces]
     out, ncut, start = [], 0, 0
     for L in lines:
         bad = inside[start:start + len(L)]
@@ -278,8 +306,8 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
     radius : int
         Ring radius of the curvature fit.
     tracer : callable, optional
-        ``tracer(V, T, U, W, family, separation, [seeds=, min_length=]) -> list of (k, 3) polylines``; default the
-        project's :func:`components.fields.streamlines.evenly_spaced_streamlines`.
+        ``tracer(V, T, U, W, family, separation, [seeds=(faces, barycentric), min_length=]) -> list of (k, 3)
+        polylines``; default the project's :func:`components.fields.streamlines.evenly_spaced_streamlines`.
     umbilic : {"skip", "fill"}
         ``"skip"``: no line is seeded in an umbilic region and lines are cut where they enter one; ``"fill"``: the
         umbilic regions get the smoothest continuation of the principal directions around them
@@ -385,7 +413,7 @@ def principal_angle_error(Vq: np.ndarray, Fq: np.ndarray, V: np.ndarray, T: np.n
     fld = net_or_field.field if hasattr(net_or_field, "field") else net_or_field
     E = edge_topology(Fq).E
     mid = 0.5 * (Vq[E[:, 0]] + Vq[E[:, 1]])
-    f = TriangleIndex(V, T).query(mid).faces
+    f = surface_index(V, T).query(mid).faces
     d = Vq[E[:, 1]] - Vq[E[:, 0]]
     N = np.cross(fld.PD1[f], fld.PD2[f])
     d = d - np.einsum("ij,ij->i", d, N)[:, None] * N
