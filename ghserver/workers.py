@@ -21,7 +21,7 @@ import threading
 import time
 from pathlib import Path
 
-from components.core import progress
+from components.core import memo, progress
 
 log = logging.getLogger(__name__)
 
@@ -148,6 +148,7 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
             status, uri, info = 500, header.get("uri") or "", {}
             text = json.dumps(protocol.error_body([f"internal error: {type(exc).__name__}"])).encode()
         del raw
+        memo.clear_all()  # what the solve kept for reuse (surface indexes, tracers, ...) must not outlive it
         conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb(), "peak_mb": peak_rss_mb(),
                                     **info}).encode())
         conn.send_bytes(text)

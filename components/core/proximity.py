@@ -34,10 +34,7 @@ J. A. Bærentzen, H. Aanæs, "Signed distance computation using the angle weight
 """
 from __future__ import annotations
 
-import hashlib
 import logging
-import threading
-from collections import OrderedDict
 from typing import NamedTuple
 
 import numpy as np
@@ -45,6 +42,7 @@ from scipy.spatial import cKDTree
 
 from components.core.checks import check_points, validate_mesh
 from components.core.errors import InputError, MeshError
+from components.core.memo import ContentCache, digest
 from components.core.measures import cross, triangle_angles, unit
 from components.core.mesh import edge_topology
 
@@ -629,31 +627,13 @@ def _cell_size(longest, area, ext) -> float:
     return h
 
 
-_CACHE: OrderedDict = OrderedDict()  # content digest -> _Surface, most recent last
-_CACHE_LOCK = threading.Lock()
+_CACHE = ContentCache("triangle indexes", entries=_CACHE_ENTRIES, limit=_CACHE_TRIANGLES, weight=lambda s: len(s.T))
 
 
 def _surface(V, T) -> _Surface:
     """The :class:`_Surface` of ``(V, T)``, from :data:`_CACHE` when the same arrays (by content) were indexed
     recently."""
-    h = hashlib.blake2b(digest_size=16)
-    h.update(np.asarray(V.shape, dtype=np.int64))
-    h.update(np.asarray(T.shape, dtype=np.int64))
-    h.update(V)
-    h.update(T)
-    key = h.digest()
-    with _CACHE_LOCK:
-        s = _CACHE.get(key)
-        if s is not None:
-            _CACHE.move_to_end(key)
-            return s
-    s = _Surface(V.copy(), T.copy())
-    with _CACHE_LOCK:
-        _CACHE[key] = s
-        while len(_CACHE) > 1 and (len(_CACHE) > _CACHE_ENTRIES or
-                                   sum(len(x.T) for x in _CACHE.values()) > _CACHE_TRIANGLES):
-            _CACHE.popitem(last=False)
-    return s
+    return _CACHE.get(digest(V, T), lambda: _Surface(V.copy(), T.copy()))
 
 
 class TriangleIndex:

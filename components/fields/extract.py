@@ -25,12 +25,10 @@ Asia) 32(6), 2013 (tracing in the triangles' charts, robustness of the graph).
 """
 from __future__ import annotations
 
-import hashlib
 import heapq
 import logging
 import math
 import time
-from collections import OrderedDict
 from typing import NamedTuple
 
 import numpy as np
@@ -41,6 +39,7 @@ from scipy.spatial import cKDTree
 
 from components.core.blas import single_blas_thread
 from components.core.measures import corner_angles, nonconvex_faces
+from components.core.memo import ContentCache, digest
 from components.core.mesh import edge_topology, face_corners, face_normals, face_sizes, halfedges, pad_faces
 from components.core.proximity import TriangleIndex
 
@@ -586,19 +585,12 @@ def boundary_curve(V: np.ndarray, T: np.ndarray) -> BoundaryCurve:
     the same surface's boundary many times. Treat the returned arrays as read-only."""
     V = np.ascontiguousarray(V, dtype=np.float64)
     T = np.ascontiguousarray(T, dtype=np.int64)
-    key = (V.shape, T.shape, hashlib.blake2b(V.data, digest_size=16).digest(),
-           hashlib.blake2b(T.data, digest_size=16).digest())
-    hit = _CURVES.get(key)
-    if hit is None:
-        hit = _CURVES[key] = _boundary_curve(V, T)
-        while len(_CURVES) > _CACHED:
-            _CURVES.popitem(last=False)
-    return hit
+    return _CURVES.get(digest(V, T), lambda: _boundary_curve(V, T))
 
 
 _CACHED = 4  # boundary curves (and their segment indexes) kept
-_CURVES: OrderedDict = OrderedDict()
-_TREES: OrderedDict = OrderedDict()
+_CURVES = ContentCache("boundary curves", entries=_CACHED)
+_TREES = ContentCache("boundary segment indexes", entries=_CACHED)
 
 
 def _boundary_curve(V: np.ndarray, T: np.ndarray) -> BoundaryCurve:
@@ -629,15 +621,8 @@ _BRUTE_PAIRS = 1 << 13  # below this many point-segment pairs every segment is c
 
 def _segment_index(A: np.ndarray, D: np.ndarray):
     """k-d tree of the segment midpoints and the longest half segment, kept for the last few boundary curves."""
-    hit = _TREES.get(id(A))
-    if hit is not None and hit[0] is A:
-        return hit[1], hit[2]
-    tree = cKDTree(A + 0.5 * D)
-    half = float(0.5 * np.sqrt(np.einsum("ij,ij->i", D, D)).max())
-    _TREES[id(A)] = (A, tree, half)
-    while len(_TREES) > _CACHED:
-        _TREES.popitem(last=False)
-    return tree, half
+    return _TREES.get(digest(A, D), lambda: (cKDTree(A + 0.5 * D),
+                                             float(0.5 * np.sqrt(np.einsum("ij,ij->i", D, D)).max())))
 
 
 def _nearest_segments_indexed(P, A, D, dd, chunk):

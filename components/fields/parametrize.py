@@ -39,9 +39,7 @@ direction field", ACM Trans. Graph. (SIGGRAPH Asia) 30(6), 2011 (non-orthogonal 
 """
 from __future__ import annotations
 
-import hashlib
 import logging
-import threading
 import time
 from typing import NamedTuple
 
@@ -52,6 +50,7 @@ from scipy.sparse.linalg import splu
 
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
+from components.core.memo import ContentCache, digest
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
 from components.core.measures import unit
@@ -830,27 +829,18 @@ class _FieldCuts(NamedTuple):
     fresh: bool = True
 
 
-_last_cuts: list = []  # [(content key, _FieldCuts)]: the last field's cut graph
-_last_cuts_lock = threading.Lock()
-
-
-def _content_key(*arrays: np.ndarray) -> bytes:
-    """Digest of the arrays' dtypes, shapes and bytes."""
-    h = hashlib.blake2b(digest_size=20)
-    for a in arrays:
-        a = np.ascontiguousarray(a)
-        h.update(f"{a.dtype.str}{a.shape}".encode())
-        h.update(a.data)
-    return h.digest()
+_CUTS = ContentCache("field cut graphs")  # the last field's cut graph
 
 
 def _field_cuts(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray) -> _FieldCuts:
     """:class:`_FieldCuts` of a mesh and field. The last one is remembered (keyed by the arrays' contents): the
     candidate parametrizes one field in two boundary modes, and the cut graph is the same for both."""
-    key = _content_key(V, T, U, W)
-    with _last_cuts_lock:
-        if _last_cuts and _last_cuts[0][0] == key:
-            return _last_cuts[0][1]._replace(fresh=False)
+    built = []
+    out = _CUTS.get(digest(V, T, U, W), lambda: built.append(True) or _built_cuts(V, T, U, W))
+    return out if built else out._replace(fresh=False)
+
+
+def _built_cuts(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray) -> _FieldCuts:
     t0 = time.perf_counter()
     tp = _topology(V, T)
     loops = _disk_boundary_loops(V, T, tp.E)
@@ -869,8 +859,6 @@ def _field_cuts(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray) -> _
     energy = _copy_energy(V, T, tp, cuts.copy.reshape(len(T), 3), cuts.ncopies, Uc, Wc)
     out = _FieldCuts(tp, loops, W, sing, turns, paths, kinds, warnings, cuts, Uc, Wc, cut_edges, energy,
                      (t1 - t0, time.perf_counter() - t1))
-    with _last_cuts_lock:
-        _last_cuts[:] = [(key, out)]
     return out
 
 

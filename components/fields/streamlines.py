@@ -20,7 +20,6 @@ triangles by unfolding).
 """
 from __future__ import annotations
 
-import hashlib
 import logging
 import math
 from typing import NamedTuple
@@ -30,6 +29,7 @@ from scipy.spatial import cKDTree
 
 from components.core.checks import check_choice, check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
+from components.core.memo import ContentCache, digest
 from components.core.mesh import triangulate
 from components.core.proximity import TriangleIndex, closest_points
 from components.core.types import Curves, Mesh, Points
@@ -936,26 +936,16 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     return lines
 
 
-_PREPARED: dict = {}  # the last tracer built (and its cover faces), by the digest of its inputs
-
-
-def _digest(a) -> tuple:
-    a = np.ascontiguousarray(a)
-    return a.shape, a.dtype.str, hashlib.blake2b(a.view(np.uint8).ravel(), digest_size=16).digest()
+_PREPARED = ContentCache("streamline tracers")  # the last tracer built (and its cover faces)
 
 
 def _prepared(V, T, U, W, singularities, radius, sep):
     """The tracer of a mesh and field (:class:`_Tracer`, its singularities found when not given) and the cover faces
     at separation ``sep``: the last ones are kept, so the two families of a network (two calls on the same arrays)
     build them once."""
-    key = (_digest(V), _digest(T), _digest(U), _digest(W),
-           None if singularities is None else _digest(np.asarray(singularities)), float(radius))
-    last = _PREPARED.get("last")
-    if last is None or last[0] != key:
-        tr = _Tracer(V, T, U, W, _singular_setup(V, T, U, W, singularities, radius), radius)
-        last = (key, tr, {})
-        _PREPARED["last"] = last
-    _, tr, covers = last
+    key = digest(V, T, U, W, None if singularities is None else np.asarray(singularities), float(radius))
+    tr, covers = _PREPARED.get(key, lambda: (
+        _Tracer(V, T, U, W, _singular_setup(V, T, U, W, singularities, radius), radius), {}))
     if sep not in covers:
         covers.clear()
         covers[sep] = _cover_faces(tr.fr, sep)

@@ -41,7 +41,6 @@ parametrization and turned into a quad-dominant mesh).
 """
 from __future__ import annotations
 
-import hashlib
 import logging
 import math
 from typing import NamedTuple
@@ -51,6 +50,7 @@ from scipy.spatial import cKDTree
 
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_number
+from components.core.memo import ContentCache, digest
 from components.core.conformal import check_disk, disk_map, lscm
 from components.core.errors import MeshError
 from components.core.mesh import boundary_loops, edge_topology, face_sizes, pad_faces
@@ -111,18 +111,13 @@ def plane_map(V: np.ndarray, T: np.ndarray, method: str = "lscm") -> tuple[np.nd
         No boundary, several boundary loops or handles (not a disk), several components (named ``mesh``).
     """
     check_choice(method, "method", PLANE_MAPS)
-    key = (method,) + tuple((a.shape, hashlib.blake2b(np.ascontiguousarray(a).view(np.uint8).ravel(),
-                                                      digest_size=16).digest())
-                            for a in (np.asarray(V, np.float64), np.asarray(T, np.int64)))
-    last = _PLANE.get("last")
-    if last is not None and last[0] == key:  # the strategy's retries rebuild on the same surface
-        return last[1].copy(), list(last[2])
-    UV, warnings = _plane_map(V, T, method)
-    _PLANE["last"] = (key, UV.copy(), list(warnings))
-    return UV, warnings
+    # the strategy's retries rebuild on the same surface
+    UV, warnings = _PLANE.get(digest(method, np.asarray(V, np.float64), np.asarray(T, np.int64)),
+                              lambda: _plane_map(V, T, method))
+    return UV.copy(), list(warnings)
 
 
-_PLANE: dict = {}  # the last plane map computed (plane_map)
+_PLANE = ContentCache("plane maps")  # the last plane map computed (plane_map)
 
 
 def _plane_map(V, T, method):

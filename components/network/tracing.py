@@ -36,7 +36,6 @@ Jobard, Lefer, *Creating evenly-spaced streamlines of arbitrary density*, Visual
 """
 from __future__ import annotations
 
-import hashlib
 import inspect
 import logging
 from typing import Callable, NamedTuple
@@ -47,6 +46,7 @@ from scipy.sparse.linalg import spsolve
 
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_int, check_mesh, check_number
+from components.core.memo import ContentCache, digest
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, edge_topology, triangulate
@@ -88,7 +88,7 @@ class PrincipalField(NamedTuple):
     umbilic: np.ndarray  # (t,) bool, anisotropy below the threshold
 
 
-_INDEX: dict = {}  # the last surface index built (surface_index)
+_INDEX = ContentCache("network surface indexes")  # the last surface index built (surface_index)
 
 
 def surface_index(V: np.ndarray, T: np.ndarray) -> TriangleIndex:
@@ -105,12 +105,7 @@ def surface_index(V: np.ndarray, T: np.ndarray) -> TriangleIndex:
     """
     V = np.ascontiguousarray(V, np.float64)
     T = np.ascontiguousarray(T, np.int64)
-    key = tuple((a.shape, hashlib.blake2b(a.view(np.uint8).ravel(), digest_size=16).digest()) for a in (V, T))
-    last = _INDEX.get("last")
-    if last is None or last[0] != key:
-        last = (key, TriangleIndex(V, T))
-        _INDEX["last"] = last
-    return last[1]
+    return _INDEX.get(digest(V, T), lambda: TriangleIndex(V, T))
 
 
 def principal_field(V: np.ndarray, T: np.ndarray, umbilic_threshold: float = 0.05, radius: int = 2) -> PrincipalField:
