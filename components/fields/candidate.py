@@ -242,9 +242,8 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
         Repair the panels that are not healthy (:func:`components.fields.repair.repaired_candidate`: valence-2
         vertices dissolved, short edges collapsed, vertices of pinched, folded or non-convex panels smoothed on
         the surface, such panels split) and measure the candidate's health against the surface. With
-        ``"auto"`` the tried candidates are repaired best score first until one is healthy or has at most one
-        unhealthy panel per thousand (else the one with the fewest unhealthy panels is kept). Off by default (the
-        subdivision strategy's coarse nets).
+        ``"auto"`` the tried candidates are repaired best score first until one is healthy (else the one with the
+        fewest unhealthy panels is kept). Off by default (the subdivision strategy's coarse nets).
 
     Returns
     -------
@@ -313,10 +312,11 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
 
 
 def _healthiest(V, T, ranked, target: float, index: TriangleIndex):
-    """Repair the ranked extractions (best score first) until one is healthy against the surface, or has at most
-    one unhealthy panel per :data:`_NEARLY_HEALTHY` (the others are rarely better: none of five on the 200k-triangle
-    benchmark patch, whose best-ranked candidate keeps one 19.5° corner); else the one with the fewest unhealthy
-    faces (the first of equals). Returns ``ex, par, health, repairs``."""
+    """Repair the ranked extractions (best score first) until one is healthy against the surface; else the one
+    with the fewest unhealthy faces (the first of equals). A candidate whose repair leaves as many unhealthy panels
+    as the best one's is not checked against the surface. (Stopping at a nearly healthy candidate was tried: on the
+    20k benchmark patch moved to +5e6 it kept a candidate with one 167° corner where the next one was healthy.)
+    Returns ``ex, par, health, repairs``."""
     best = None
     first = None
     for ex, par in ranked:
@@ -335,15 +335,10 @@ def _healthiest(V, T, ranked, target: float, index: TriangleIndex):
         bad = int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
         if best is None or bad < best[0]:
             best = (bad, out)
-        if best[0] * _NEARLY_HEALTHY <= len(best[1][0].F):
-            break
     if best is None:
         ex, par = first
         return ex, par, None, {}
     return best[1]
-
-
-_NEARLY_HEALTHY = 1000  # a repaired candidate with at most one unhealthy panel per this many is kept
 
 
 class Quality(NamedTuple):
