@@ -26,9 +26,10 @@ seconds) → 3.8 s (1.06x), 200k 2.5x → 1.3x; pq_from_conjugate_field 20k 42.8
 extraction 8.4, planarization 18.4) → 20.0 s (4.4, 1.2, 6.9, 6.6), peak 170 MB. The field's sparse factorizations
 had swung 10-100x with OpenBLAS' threads on a busy machine (components.core.blas). Session 7 (exact-closest-point
 grid index, one repaired candidate, batched repair, cached cut graph): 20k 12.5 s (field 4.1, param 0.6, extract
-2.3, planarize 5.0; same 1406-face candidate, 9.4e-5, healthy), peak 155 MB; 200k 317 s → 109 s (field 49.9, param
-10.8, extract 21.8, planarize 25.1, not converged: the candidate's smooth non-planarity needs larger moves than the
-panel-health guard allows), peak 748 MB. Issue #21's targets (3 s, 15 s) are not met yet.
+2.3, planarize 5.0; same 1406-face candidate, 9.4e-5, healthy), peak 155 MB; 200k 317 s → 140 s (field 48.1, param
+9.0, extract 51.3 — all six candidates repaired, none healthy —, planarize 29.2, not converged: the candidate's
+smooth non-planarity needs larger moves than the panel-health guard allows), peak 751 MB. Issue #21's targets
+(3 s, 15 s) are not met yet.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
