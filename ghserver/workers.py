@@ -179,6 +179,8 @@ class _Worker:
         child.close()
         self.solves = 0
         self.ready = False
+        self._kill_lock = threading.Lock()
+        self._killed = False
 
     def wait_ready(self, timeout: float) -> bool:
         if self.ready:
@@ -191,12 +193,18 @@ class _Worker:
         return self.ready
 
     def kill(self) -> None:
-        try:
-            self.process.kill()
-        except Exception:  # pragma: no cover
-            pass
-        self.process.join(timeout=5)
-        self.conn.close()
+        """Kill the process and close its pipe, once: a cancelled solve retiring its worker and the pool closing
+        may both get here at the same moment (a second close of the pipe would fail with a bad descriptor)."""
+        with self._kill_lock:
+            if self._killed:
+                return
+            self._killed = True
+            try:
+                self.process.kill()
+            except Exception:  # pragma: no cover
+                pass
+            self.process.join(timeout=5)
+            self.conn.close()
 
 
 class WorkerPool:

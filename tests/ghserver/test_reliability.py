@@ -172,3 +172,27 @@ def test_in_process_solves_still_work_without_workers(echo_registry):
     r = client.post("/solve", json=hops_body("echo/scale", hops_tree("x", ["1"])))
     assert r.status_code == 200
     assert np.isclose(float(r.json["values"][0]["InnerTree"]["{0}"][0]["data"]), 2.0)
+
+
+def test_a_worker_killed_from_two_threads_at_once_closes_once():
+    """A cancelled solve retires its worker while the pool closes: both kill it at the same moment; the second
+    must neither raise (a pipe closed twice: bad file descriptor) nor return before the process is gone."""
+    import threading
+
+    from ghserver.workers import WorkerPool
+
+    pool = WorkerPool(size=1)
+    w = pool._idle.get(timeout=30)
+    assert w.wait_ready(60)
+    errors = []
+
+    def kill():
+        try:
+            w.kill()
+        except Exception as exc:  # pragma: no cover - the failure this test is about
+            errors.append(exc)
+
+    threads = [threading.Thread(target=kill) for _ in range(4)] + [threading.Thread(target=pool.close)]
+    [t.start() for t in threads]
+    [t.join() for t in threads]
+    assert not errors and not w.process.is_alive() and w.conn.closed
