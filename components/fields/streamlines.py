@@ -187,19 +187,6 @@ class _Tracer:
         l2 = (z1.real * zi - z1.imag * zr) / den
         return 1.0 - l1 - l2, l1, l2
 
-    def field(self, f: int, fam: int, z: complex, d: complex) -> complex:
-        l0, l1, l2 = self.bary(f, z)
-        i = 6 * f + 3 * fam
-        c = self.cvf
-        v = l0 * c[i] + l1 * c[i + 1] + l2 * c[i + 2]
-        a = abs(v)
-        if a < 1e-9:
-            v = self.fvf[2 * f + fam]
-            a = 1.0
-        if (v * d.conjugate()).real < 0:
-            v = -v
-        return v / a
-
     def family_in(self, f: int, d: complex) -> int:
         u, w = self.fvf[2 * f], self.fvf[2 * f + 1]
         return 0 if abs((u * d.conjugate()).real) >= abs((w * d.conjugate()).real) else 1
@@ -298,6 +285,22 @@ class _Tracer:
         reason = "length"
         eps_stuck, eps_move = 1e-9 * step, 1e-12 * step
         cur = -1
+
+        def slope(q: complex, ref: complex) -> complex:
+            """The unit field direction at face coordinate ``q`` of the current face (the per-face constants below),
+            linearly interpolated from its corners and turned to agree with ``ref``; the face's own direction where
+            the interpolation vanishes."""
+            qr, qi = q.real, q.imag
+            b1 = (qr * z2i - qi * z2r) / den
+            b2 = (z1r * qi - z1i * qr) / den
+            v = (1.0 - b1 - b2) * c0 + b1 * c1 + b2 * c2
+            a = abs(v)
+            if a < 1e-9:
+                v, a = fv, 1.0
+            if (v * ref.conjugate()).real < 0:
+                v = -v
+            return v / a
+
         while length < max_length and it < max_iter:
             it += 1
             if f != cur:  # per-face constants
@@ -310,50 +313,11 @@ class _Tracer:
                 c0, c1, c2 = cvf[i6], cvf[i6 + 1], cvf[i6 + 2]
                 fv = fvf[2 * f + fam]
             h = min(step, max_length - length)
-            # RK4 on the linearly interpolated field (see field())
-            zr, zi = z.real, z.imag
-            b1 = (zr * z2i - zi * z2r) / den
-            b2 = (z1r * zi - z1i * zr) / den
-            v = (1.0 - b1 - b2) * c0 + b1 * c1 + b2 * c2
-            a = abs(v)
-            if a < 1e-9:
-                v, a = fv, 1.0
-            if (v * d.conjugate()).real < 0:
-                v = -v
-            k1 = v / a
-            q = z + 0.5 * h * k1
-            zr, zi = q.real, q.imag
-            l1 = (zr * z2i - zi * z2r) / den
-            l2 = (z1r * zi - z1i * zr) / den
-            v = (1.0 - l1 - l2) * c0 + l1 * c1 + l2 * c2
-            a = abs(v)
-            if a < 1e-9:
-                v, a = fv, 1.0
-            if (v * k1.conjugate()).real < 0:
-                v = -v
-            k2 = v / a
-            q = z + 0.5 * h * k2
-            zr, zi = q.real, q.imag
-            l1 = (zr * z2i - zi * z2r) / den
-            l2 = (z1r * zi - z1i * zr) / den
-            v = (1.0 - l1 - l2) * c0 + l1 * c1 + l2 * c2
-            a = abs(v)
-            if a < 1e-9:
-                v, a = fv, 1.0
-            if (v * k2.conjugate()).real < 0:
-                v = -v
-            k3 = v / a
-            q = z + h * k3
-            zr, zi = q.real, q.imag
-            l1 = (zr * z2i - zi * z2r) / den
-            l2 = (z1r * zi - z1i * zr) / den
-            v = (1.0 - l1 - l2) * c0 + l1 * c1 + l2 * c2
-            a = abs(v)
-            if a < 1e-9:
-                v, a = fv, 1.0
-            if (v * k3.conjugate()).real < 0:
-                v = -v
-            k4 = v / a
+            # RK4 on the linearly interpolated field
+            k1 = slope(z, d)
+            k2 = slope(z + 0.5 * h * k1, k1)
+            k3 = slope(z + 0.5 * h * k2, k2)
+            k4 = slope(z + h * k3, k3)
             delta = h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
             z2 = z + delta
             # the first edge crossed by z → z2 (see exit())
