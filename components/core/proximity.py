@@ -636,6 +636,16 @@ def _surface(V, T) -> _Surface:
     return _CACHE.get(digest(V, T), lambda: _Surface(V.copy(), T.copy()))
 
 
+def _box_cells(rows: np.ndarray, lo: np.ndarray, n: np.ndarray, cnt: np.ndarray):
+    """Every cell of each row's box of cells (lowest cell ``lo (q, 3)``, ``n (q, 3)`` cells along each axis,
+    ``cnt = n.prod(axis=1)``): ``(row, ix, iy, iz)``, one entry per cell, x fastest."""
+    r = np.repeat(rows, cnt)
+    local = np.arange(len(r)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    nm, lm = np.repeat(n, cnt, axis=0), np.repeat(lo, cnt, axis=0)
+    q = local // nm[:, 0]
+    return r, lm[:, 0] + local % nm[:, 0], lm[:, 1] + q % nm[:, 1], lm[:, 2] + q // nm[:, 1]
+
+
 class TriangleIndex:
     """A spatial index over a triangle mesh answering exact closest-point queries; build once, query many.
 
@@ -793,13 +803,7 @@ class TriangleIndex:
             few = cnt <= _BALL_CELLS
             m = np.flatnonzero(few & (cnt > 0))
             if len(m):
-                r = np.repeat(rest[m], cnt[m])
-                local = np.arange(len(r)) - np.repeat(np.cumsum(cnt[m]) - cnt[m], cnt[m])
-                nm, lm = np.repeat(n[m], cnt[m], axis=0), np.repeat(lo[m], cnt[m], axis=0)
-                ix = lm[:, 0] + local % nm[:, 0]
-                q = local // nm[:, 0]
-                iy = lm[:, 1] + q % nm[:, 1]
-                iz = lm[:, 2] + q // nm[:, 1]
+                r, ix, iy, iz = _box_cells(rest[m], lo[m], n[m], cnt[m])
                 new = (ix != c[r, 0]) | (iy != c[r, 1]) | (iz != c[r, 2])  # the own cell is done
                 best = np.full(len(Pc), -1, dtype=np.int64)
                 best_d2 = np.full(len(Pc), np.inf)
@@ -885,13 +889,7 @@ class TriangleIndex:
             search = fits & ((cnt > 1) | (g.level > 0) | ~own)  # a ball inside its own cell is settled
             m = np.flatnonzero(search)
             if len(m):
-                r = np.repeat(todo[m], cnt[m])
-                local = np.arange(len(r)) - np.repeat(np.cumsum(cnt[m]) - cnt[m], cnt[m])
-                nm, lm = np.repeat(n[m], cnt[m], axis=0), np.repeat(lo[m], cnt[m], axis=0)
-                ix = lm[:, 0] + local % nm[:, 0]
-                rest = local // nm[:, 0]
-                iy = lm[:, 1] + rest % nm[:, 1]
-                iz = lm[:, 2] + rest // nm[:, 1]
+                r, ix, iy, iz = _box_cells(todo[m], lo[m], n[m], cnt[m])
                 cm = np.repeat(c[m], cnt[m], axis=0)
                 bm = np.repeat(block[m], cnt[m])
                 near = np.abs(np.stack([ix, iy, iz], axis=1) - cm).max(axis=1)
