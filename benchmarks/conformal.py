@@ -29,8 +29,10 @@ import scipy.sparse.linalg as spla
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from components.conical.cones import conical_check, face_offset  # noqa: E402
+from forked import peak_mb, run_forked  # noqa: E402
 from components.core.mesh import boundary_loops, quad_grid, read_mesh, triangulate  # noqa: E402
 from components.core.conformal import (  # noqa: E402
     _farthest_pair,
@@ -178,15 +180,7 @@ def table_offsets(quick):
               f"| {off.axis_coplanarity.max():.1e} / {np.median(off.axis_coplanarity):.1e} | {crit:.1e} |")
 
 
-def _peak_mb() -> float:
-    try:
-        import resource
-    except ImportError:  # Windows: no peak figure
-        return float("nan")
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
-
-
-def _pipeline_child(conn, case, tracer):
+def _pipeline_case(case, tracer):
     """One curvature-network case in a fresh (forked) process: its numbers, CPU seconds and peak memory."""
     from components.network.pipeline import curvature_pipeline
     from components.surfaces.samples import sample_mesh
@@ -202,10 +196,9 @@ def _pipeline_child(conn, case, tracer):
     c = time.process_time()
     r = curvature_pipeline((V, T), h, offset=0.1 * h, tracer=tracer, timings=tm)
     cpu = time.process_time() - c
-    conn.send((len(T), tm, cpu, _peak_mb(), len(r.optimized[1]), r.quad_fraction, r.mean_angle_error,
-               r.max_planarity, r.max_criterion, r.relative_closeness, r.max_offset_error / (0.1 * h), r.healthy,
-               r.coverage))
-    conn.close()
+    return (len(T), tm, cpu, peak_mb(), len(r.optimized[1]), r.quad_fraction, r.mean_angle_error,
+            r.max_planarity, r.max_criterion, r.relative_closeness, r.max_offset_error / (0.1 * h), r.healthy,
+            r.coverage)
 
 
 def table_curvature_pipeline(quick):
@@ -214,8 +207,6 @@ def table_curvature_pipeline(quick):
     network is traced by components.fields.streamlines when present, else by the private test tracer of
     tests/components; each case runs in a fresh process (peak memory is its high-water mark; CPU seconds are steadier
     than the wall clock on a shared machine)."""
-    import multiprocessing as mp
-
     tracer = None
     try:
         import components.fields.streamlines  # noqa: F401
@@ -234,14 +225,11 @@ def table_curvature_pipeline(quick):
     cases += [("wave", 60, 2.0, 1000.0, 0.0), ("wave", 60, 2.0, 1.0, 5e6)]
     if (SHARED / "libigl/inspired_mesh.obj").exists():
         cases.append(("inspired_mesh", 0, 2.0, 1.0, 0.0))
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
     for case in cases:
-        a, b = ctx.Pipe(duplex=False)
-        p = ctx.Process(target=_pipeline_child, args=(b, case, tracer))
-        p.start()
-        b.close()
-        nt, tm, cpu, peak, nf, qf, ang, pl, crit, close, off, healthy, cov = a.recv()
-        p.join()
+        res = run_forked(_pipeline_case, case, tracer)
+        if res is None:
+            raise RuntimeError(f"the pipeline case {case} crashed its process")
+        nt, tm, cpu, peak, nf, qf, ang, pl, crit, close, off, healthy, cov = res
         name, _, h, scale, shift = case
         name += f" ×{scale:g}" if scale != 1 else ""
         name += f" +{shift:g}" if shift else ""

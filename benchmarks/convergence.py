@@ -18,7 +18,6 @@ converged = max planarity ≤ tolerance and healthy, the stop reason, seconds) a
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
@@ -28,12 +27,13 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from fields import _mean_edge, patch  # noqa: E402
+from forked import run_forked  # noqa: E402
 
 PLACEMENTS = {"x1": (1.0, 0.0), "x1000": (1000.0, 0.0), "+5e6": (1.0, 5e6)}
 TOLERANCE = 1e-4
 
 
-def _case(conn, size: int, seed: int, placement: str, budget: float):
+def _case(size: int, seed: int, placement: str, budget: float):
     from components.fields.pipeline import pq_from_conjugate_field
 
     scale, offset = PLACEMENTS[placement]
@@ -43,23 +43,13 @@ def _case(conn, size: int, seed: int, placement: str, budget: float):
     r = pq_from_conjugate_field((V * scale + offset, T), h * scale, tolerance=TOLERANCE, time_budget=budget)
     dt = time.perf_counter() - t
     stop = next((w.split(": ", 1)[1] for w in r.warnings if w.startswith("planarization stopped")), "")
-    conn.send((len(r.planarized[1]), r.candidate_max_planarity, r.planarized_max_planarity, r.healthy, stop, dt))
-    conn.close()
+    return len(r.planarized[1]), r.candidate_max_planarity, r.planarized_max_planarity, r.healthy, stop, dt
 
 
 def run(size: int, seed: int, placement: str, budget: float):
     """One case in a fresh process: ``(faces, candidate max, final max, healthy, stop reason, seconds)``."""
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    a, b = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_case, args=(b, size, seed, placement, budget))
-    p.start()
-    b.close()
-    try:
-        out = a.recv()
-    except EOFError:
-        out = (0, float("nan"), float("nan"), False, "crashed", float("nan"))
-    p.join()
-    return out
+    return run_forked(_case, size, seed, placement, budget,
+                      failed=(0, float("nan"), float("nan"), False, "crashed", float("nan")))
 
 
 def main(argv=None):

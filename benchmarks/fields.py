@@ -37,7 +37,6 @@ Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
@@ -47,10 +46,12 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))  # forked.py, also when imported as benchmarks.fields
 
 from components.core.curvature import gaussian_curvature, vertex_principal_curvature  # noqa: E402
 from components.core.mesh import edge_topology, read_mesh, remove_unreferenced  # noqa: E402
 from components.fields.remesh import isotropic_remesh  # noqa: E402
+from forked import peak_mb, run_forked  # noqa: E402
 
 
 class Step(NamedTuple):
@@ -320,37 +321,18 @@ def _best(fn, V, T, repeat):
     return best, cpu, out
 
 
-def _peak_mb() -> float:
-    try:
-        import resource
-    except ImportError:  # Windows: no peak figure
-        return float("nan")
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
-
-
-def _child(conn, step_index, size_or_path, repeat, which):
+def _one(step_index, size_or_path, repeat, which):
     step = STEPS[step_index]
     V, T = _input(size_or_path)
     fn = step.ours if which == "ours" else step.reference
     wall, cpu, out = _best(fn, V, T, repeat)
     q = step.quality(out) if (step.quality and which == "ours") else ""
-    conn.send((wall, cpu, _peak_mb(), q))
-    conn.close()
+    return wall, cpu, peak_mb(), q
 
 
 def _measure(step_index, size_or_path, repeat, which="ours"):
     """Run one step on one input in a fresh (forked) process: ``(wall s, cpu s, peak MB, quality text)``."""
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    a, b = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_child, args=(b, step_index, size_or_path, repeat, which))
-    p.start()
-    b.close()
-    try:
-        res = a.recv()
-    except EOFError:
-        res = (np.nan, np.nan, np.nan, "failed")
-    p.join()
-    return res
+    return run_forked(_one, step_index, size_or_path, repeat, which, failed=(np.nan, np.nan, np.nan, "failed"))
 
 
 def _input(size_or_path):

@@ -44,7 +44,6 @@ Peak memory of a 200k-triangle index: about 80 MB held, 185 MB while it is built
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
@@ -60,6 +59,7 @@ import components.core.proximity as proximity  # noqa: E402
 from components.core.mesh import edge_topology  # noqa: E402
 from components.metrics.health import face_health  # noqa: E402
 from fields import patch  # noqa: E402  (benchmarks/fields.py: the shared input)
+from forked import peak_mb, run_forked  # noqa: E402
 
 
 def _mean_edge(V, T):
@@ -179,15 +179,7 @@ def _data(n: int) -> dict:
     return d
 
 
-def _peak_mb() -> float:
-    try:
-        import resource
-    except ImportError:  # Windows: no peak figure
-        return float("nan")
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
-
-
-def _child(conn, row_index, d, repeat, which):
+def _one(row_index, d, repeat, which):
     row = ROWS[row_index]
     if row.name.startswith("TriangleIndex query"):  # built before the clock starts
         d["index"] = proximity.TriangleIndex(d["V"], d["T"])
@@ -204,24 +196,13 @@ def _child(conn, row_index, d, repeat, which):
             best, cpu = dt, time.process_time() - c
     keep = row.reference is not None and row.quality is not None  # the parent compares the two outputs
     text = row.quality(d, out, None) if (row.quality and which == "ours") else ""
-    conn.send((best, cpu, _peak_mb(), out if keep and which == "reference" else None, text,
-               out if keep and which == "ours" else None))
-    conn.close()
+    return (best, cpu, peak_mb(), out if keep and which == "reference" else None, text,
+            out if keep and which == "ours" else None)
 
 
 def _measure(row_index, d, repeat, which="ours"):
     """Run one row in a fresh (forked) process: ``(wall s, cpu s, peak MB, reference output, text, our output)``."""
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    a, b = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_child, args=(b, row_index, d, repeat, which))
-    p.start()
-    b.close()
-    try:
-        res = a.recv()
-    except EOFError:
-        res = (np.nan, np.nan, np.nan, None, "failed", None)
-    p.join()
-    return res
+    return run_forked(_one, row_index, d, repeat, which, failed=(np.nan, np.nan, np.nan, None, "failed", None))
 
 
 def main(argv=None):
