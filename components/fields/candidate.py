@@ -241,9 +241,9 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     repair : bool
         Repair the panels that are not healthy (:func:`components.fields.repair.repaired_candidate`: valence-2
         vertices dissolved, short edges collapsed, vertices of pinched, folded or non-convex panels smoothed on
-        the surface, such panels split) and measure the candidate's health against the surface. With
-        ``"auto"`` the tried candidates are repaired best score first until one is healthy (else the one with the
-        fewest unhealthy panels is kept). Off by default (the subdivision strategy's coarse nets).
+        the surface, such panels split, slivers collapsed) and measure the candidate's health against the
+        surface. With ``"auto"`` the tried candidates are repaired best score first until one is healthy (else
+        the one with the fewest unhealthy panels is kept). Off by default (the subdivision strategy's coarse nets).
 
     Returns
     -------

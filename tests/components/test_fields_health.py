@@ -140,6 +140,29 @@ def test_repair_operations_on_a_grid():
     assert r.health.healthy and r.actions["collapsed"] == 1
 
 
+def test_a_sliver_quad_loses_its_short_diagonal():
+    """A grid vertex doubled into two 0.3 apart with a quad between them (corners of 17° and 163°): the sliver
+    collapse merges the two at their midpoint, back to the 4 × 4 grid; the whole repair leaves it healthy too."""
+    from components.core.mesh import pad_faces, quad_grid, triangulate
+
+    V, Q = quad_grid(4, 4, 4.0, 4.0)  # vertex 12 at (2, 2), 7 at (2, 1), 17 at (2, 3)
+    T = triangulate(Q)[0]
+    index = TriangleIndex(V, T)
+    Vc = np.vstack([V, [[2.15, 2.0, 0.0]]])
+    Vc[12] = [1.85, 2.0, 0.0]
+    F = [[25 if v == 12 and V[r].mean(axis=0)[0] > 2 else v for v in r] for r in Q.tolist()] + [[7, 25, 17, 12]]
+    q = index.query(Vc)
+    state = (q.points, pad_faces(F), q.faces, q.barycentric, np.ones(len(Vc), bool))
+    hl = repair.candidate_health(*state[:2])
+    assert hl.counts["corner"] == 1 and not hl.counts["short_edge"]
+    (X, F2, *_), merged = repair._collapsed_slivers(state, hl, index, 20.0)
+    assert merged == 1 and len(F2) == 16 and len(X) == 25
+    assert repair.candidate_health(X, F2).worst_corner == pytest.approx(90.0)
+    assert np.allclose(np.sort(X, axis=0), np.sort(V, axis=0), atol=1e-12)
+    r = repair.repaired_candidate(V, T, *state, 1.0, index=index)
+    assert r.health.healthy, r.health.violations
+
+
 # ----------------------------------------------------------------------------------------------
 # the strategy: healthy, or it says why
 
@@ -224,9 +247,10 @@ def test_strategy_does_not_depend_on_units():
 
 
 def test_a_nearly_healthy_candidate_does_not_stop_the_search():
-    """The 20k-triangle benchmark patch moved to +5e6 (its input rounded by ~1e-9): the best-ranked extraction keeps
-    one 167° corner after repair while the next one is healthy. Stopping at "one bad panel per thousand" returned
-    the unhealthy one; the search goes on until a candidate is healthy."""
+    """The 20k-triangle benchmark patch moved to +5e6 (its input rounded by ~1e-9): the best-ranked extraction kept
+    one 167° corner after repair while the next one was healthy (until the repair collapsed slivers: now the
+    best-ranked one is healthy, 1424 panels). Stopping at "one bad panel per thousand" returned the unhealthy one;
+    the search goes on until a candidate is healthy."""
     from benchmarks.fields import _mean_edge, patch
 
     V, T = patch(20000)
