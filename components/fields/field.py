@@ -507,17 +507,89 @@ def _smooth_terms(V, fr: FaceFrames, dg: DualGraph, p: np.ndarray, aniso: np.nda
 # conjugate field
 
 _GRID = 24  # samples of the first direction's angle in a cold local step (7.5°), then refinements
-_CHUNK = 32768  # faces per block in the local step (bounds the temporaries)
+_CHUNK = 8192  # faces per block in the local step (bounds the temporaries: 2 MB arrays, fastest at 20k and 200k)
+_OFFSETS = np.linspace(-1.0, 1.0, 7)  # refinement samples around the best one, in steps of the level
+_MID = 3  # the offset 0: the best sample itself
+_AROUND = np.arange(len(_OFFSETS)) != _MID
+_ROUND = 1e-10  # the local step's inputs are rounded to this (see _local_step)
 
 
-def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
-    """Local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(m, s)``.
+def _round_unit(z: np.ndarray) -> np.ndarray:
+    """Complex numbers with both parts rounded to :data:`_ROUND`."""
+    return np.round(z.real / _ROUND) * _ROUND + 1j * (np.round(z.imag / _ROUND) * _ROUND)
 
-    Written with in-place operations on a few ``(m, s)`` buffers (the step runs it tens of times on every face);
+
+class _LocalStep(NamedTuple):
+    """What the local step keeps over the iterations (rounded, see :func:`_local_step`)."""
+
+    p: np.ndarray  # (m,) unit complex principal direction d1
+    k1: np.ndarray  # (m,) principal curvatures divided by the larger magnitude
+    k2: np.ndarray
+    smin: float  # sin² of the smallest angle allowed between the two directions
+    tface: np.ndarray  # (t,) faces with a tangent (boundary or constraint) term
+    T2: np.ndarray  # (t,) the tangent's doubled angle relative to p (unit complex)
+    tw: np.ndarray  # (t,) weight of the tangent term
+    const: np.ndarray | None  # (m,) the tangent term on faces without a tangent (a constant); None: no term
+
+
+def _local_step(p, k1, k2, min_angle: float, tau=None, tau_weight=10.0) -> _LocalStep:
+    """The local step's fixed inputs, rounded to :data:`_ROUND`: unit complex directions, curvatures divided by the
+    larger of the two first (the step only uses their ratio).
+
+    The step samples the first direction's angle and keeps the best sample; two angles (``a`` and ``b(a)``)
+    reach the same pair, and near an umbilic their costs tie to the last bits. Unrounded, the same surface
+    scaled by 1000 or moved by 5e6 picked the other sample on ~2 % of the faces: pairs up to 3° apart, a
+    different candidate. Rounded, the inputs (and so the samples and the winner) are the same; the varying inputs
+    (the current pair and the previous angles) are rounded by :func:`_closest_conjugate`.
+    """
+    m = len(p)
+    kmax = np.maximum(np.abs(k1), np.abs(k2))
+    safe = np.where(kmax > 0, kmax, 1.0)
+    k1 = np.round(k1 / safe / _ROUND) * _ROUND
+    k2 = np.round(k2 / safe / _ROUND) * _ROUND
+    p = _round_unit(p)
+    tau_weight = np.broadcast_to(np.asarray(tau_weight, dtype=np.float64), (m,))
+    tface = np.zeros(0, dtype=np.int64)
+    T2 = np.zeros(0, dtype=complex)
+    const = None
+    if tau is not None:
+        has = np.isfinite(tau)
+        tface = np.flatnonzero(has)
+        # on the whole arrays, as the step always did (a complex product of a subset can differ by an ulp)
+        T2 = np.where(has, (np.where(has, _round_unit(np.where(has, tau, 0.0)), 0.0) * np.conj(p)) ** 2, 0.0)[has]
+        # without a tangent the term is tau_weight · ½ (1 − max(0, 0)): the same constant for every sample
+        const = np.where(has, 0.0, 0.5 * tau_weight)
+    return _LocalStep(p, k1, k2, float(np.sin(min_angle) ** 2), tface, T2,
+                      np.ascontiguousarray(tau_weight[tface]), const)
+
+
+class _Block(NamedTuple):
+    """One block of faces of a local step: contiguous per-face inputs of :func:`_conjugate_cost`."""
+
+    k1: np.ndarray
+    k2: np.ndarray
+    ar: np.ndarray  # doubled angle of the current first direction relative to p: real, imaginary part
+    ai: np.ndarray
+    br: np.ndarray  # the same for the second direction
+    bi: np.ndarray
+    smin: float
+    const: np.ndarray | None  # tangent term on faces without a tangent
+    tf: np.ndarray  # block-local indices of the faces with a tangent
+    tr: np.ndarray  # their doubled tangent angle (real, imaginary part) and weight
+    ti: np.ndarray
+    tw: np.ndarray
+
+
+def _conjugate_cost(ca, sa, blk: _Block, want_swap: bool = False):
+    """Local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(k, n)`` (``k`` samples of
+    the ``n`` faces of a block), and where the second assignment of the pair to ``(u, v)`` wins (with
+    ``want_swap``).
+
+    Written with in-place operations on a few ``(k, n)`` buffers (the step runs it tens of times on every face);
     every value is computed with the same operations in the same order as the plain formulas in the comments.
     """
-    x = np.multiply(-k2[:, None], sa)  # x, y = −k2 sin a, k1 cos a
-    y = np.multiply(k1[:, None], ca)
+    x = np.multiply(sa, -blk.k2)  # x, y = −k2 sin a, k1 cos a
+    y = np.multiply(ca, blk.k1)
     xx = x * x
     yy = y * y
     r2 = xx + yy
@@ -532,10 +604,6 @@ def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
     c2a -= t
     s2a = np.multiply(ca, 2.0, out=y)
     s2a *= sa
-    ar, ai = A2.real.copy()[:, None], A2.imag.copy()[:, None]
-    br, bi = B2.real.copy()[:, None], B2.imag.copy()[:, None]
-    # 2 sin² of line angles = 1 − cos of doubled angles; both assignments of (a, b) to (α, β):
-    # d1 = 2 − (c2a ar + s2a ai) − (c2b br + s2b bi), d2 = 2 − (c2a br + s2a bi) − (c2b ar + s2b ai)
     u = np.empty_like(c2a)
 
     def pair(p, q, out):  # c2a p + s2a q
@@ -544,19 +612,21 @@ def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
         out += u
         return out
 
-    d1 = pair(ar, ai, np.empty_like(c2a))
+    # 2 sin² of line angles = 1 − cos of doubled angles; both assignments of (a, b) to (α, β):
+    # d1 = 2 − (c2a ar + s2a ai) − (c2b br + s2b bi), d2 = 2 − (c2a br + s2a bi) − (c2b ar + s2b ai)
+    d1 = pair(blk.ar, blk.ai, np.empty_like(c2a))
     np.subtract(2.0, d1, out=d1)
-    e = np.multiply(c2b, br)
-    np.multiply(s2b, bi, out=u)
+    e = np.multiply(c2b, blk.br)
+    np.multiply(s2b, blk.bi, out=u)
     e += u
     d1 -= e
-    d2 = pair(br, bi, e)
+    d2 = pair(blk.br, blk.bi, e)
     np.subtract(2.0, d2, out=d2)
-    np.multiply(c2b, ar, out=t)
-    np.multiply(s2b, ai, out=u)
+    np.multiply(c2b, blk.ar, out=t)
+    np.multiply(s2b, blk.ai, out=u)
     t += u
     d2 -= t
-    swap = d2 < d1
+    swap = np.less(d2, d1) if want_swap else None
     D = np.minimum(d1, d2, out=d1)  # D = 0.5 min(d1, d2)
     D *= 0.5
     # sep = 0.5 (1 − (c2a c2b + s2a s2b)); D += where(sep < smin, 4 + (smin − sep), 0)
@@ -565,96 +635,106 @@ def _conjugate_cost(ca, sa, k1, k2, A2, B2, T2, smin, tau_weight):
     sep += u
     np.subtract(1.0, sep, out=sep)
     sep *= 0.5
-    close = sep < smin
-    np.subtract(smin, sep, out=sep)
+    close = sep < blk.smin
+    np.subtract(blk.smin, sep, out=sep)
     sep += 4.0
     sep[~close] = 0.0
     D += sep
-    if T2 is not None:
-        # tb = 0.5 (1 − max(c2a tr + s2a ti, c2b tr + s2b ti)); D += tau_weight tb
-        tr, ti = T2.real.copy()[:, None], T2.imag.copy()[:, None]
-        ta = pair(tr, ti, t)
-        tb = np.multiply(c2b, tr, out=sep)
-        np.multiply(s2b, ti, out=u)
-        tb += u
-        np.maximum(ta, tb, out=ta)
-        np.subtract(1.0, ta, out=ta)
-        ta *= 0.5
-        ta *= tau_weight[:, None]  # T2 = 0 where a face has no boundary edge: a constant, no effect
-        D += ta
+    if blk.const is not None:
+        # tb = 0.5 (1 − max(c2a tr + s2a ti, c2b tr + s2b ti)); D += tau_weight tb, on the faces with a tangent
+        # (elsewhere the term is the constant tau_weight / 2)
+        D += blk.const
+        if len(blk.tf):
+            f = blk.tf
+            ta = c2a[:, f] * blk.tr + s2a[:, f] * blk.ti
+            tb = c2b[:, f] * blk.tr + s2b[:, f] * blk.ti
+            np.maximum(ta, tb, out=ta)
+            np.subtract(1.0, ta, out=ta)
+            ta *= 0.5
+            ta *= blk.tw
+            D[:, f] += ta
     return D, swap
 
 
-_ROUND = 1e-10  # the local step's inputs are rounded to this (see _rounded_inputs)
+def _block(ls: _LocalStep, lo: int, hi: int, A2: np.ndarray, B2: np.ndarray) -> _Block:
+    """The faces ``lo:hi`` of a local step as a :class:`_Block` (``A2, B2``: the current pair's doubled angles on
+    these faces)."""
+    sel = (ls.tface >= lo) & (ls.tface < hi)
+    T2 = ls.T2[sel]
+    c = np.ascontiguousarray
+    return _Block(ls.k1[lo:hi], ls.k2[lo:hi], c(A2.real), c(A2.imag), c(B2.real), c(B2.imag), ls.smin,
+                  None if ls.const is None else ls.const[lo:hi], ls.tface[sel] - lo, c(T2.real), c(T2.imag),
+                  ls.tw[sel])
 
 
-def _rounded_inputs(u, v, p, k1, k2, tau, start):
-    """The local step's inputs rounded to :data:`_ROUND` (unit complex directions; curvatures divided by the larger
-    of the two first, which the step only uses as a ratio; the start angles), so the step is a function of the
-    geometry, not of the last bits of the input.
+def _columns(blk: _Block, cols: np.ndarray) -> _Block:
+    """The faces ``cols`` (block-local indices) of a block."""
+    pos = np.full(len(blk.k1), -1)
+    pos[cols] = np.arange(len(cols))
+    keep = pos[blk.tf] >= 0
+    return _Block(blk.k1[cols], blk.k2[cols], blk.ar[cols], blk.ai[cols], blk.br[cols], blk.bi[cols], blk.smin,
+                  None if blk.const is None else blk.const[cols], pos[blk.tf][keep], blk.tr[keep], blk.ti[keep],
+                  blk.tw[keep])
 
-    The step samples the first direction's angle and keeps the best sample; two angles (``a`` and ``b(a)``)
-    reach the same pair, and near an umbilic their costs tie to the last bits. Unrounded, the same surface
-    scaled by 1000 or moved by 5e6 picked the other sample on ~2 % of the faces: pairs up to 3° apart, a
-    different candidate. Rounded, the inputs (and so the samples and the winner) are the same.
+
+_TIE = 1e-12  # sample costs closer than this are recomputed from exact cosines (see _best_sample)
+
+
+def _best_sample(a, ca, sa, D, blk: _Block) -> np.ndarray:
+    """Per face (column), the index of the lowest-cost sample.
+
+    The samples' cosines and sines are rotations (an ulp off ``np.cos``/``np.sin`` of the angles), and so are their
+    costs. Two samples can tie exactly (``a`` and ``b(a)`` are the same pair), and then the last bit decides: on
+    the faces whose two best costs are within :data:`_TIE` the samples are recomputed from ``np.cos(a), np.sin(a)``
+    (in place), so the winner is the one exact cosines give (the margin is far above the few ulps, ~1e-15, by which
+    a rotation moves a cost): the step picks the same samples as with ``np.cos`` everywhere, bit for bit.
     """
-    def rc(z):
-        return np.round(z.real / _ROUND) * _ROUND + 1j * (np.round(z.imag / _ROUND) * _ROUND)
-
-    kmax = np.maximum(np.abs(k1), np.abs(k2))
-    safe = np.where(kmax > 0, kmax, 1.0)
-    k1 = np.round(k1 / safe / _ROUND) * _ROUND
-    k2 = np.round(k2 / safe / _ROUND) * _ROUND
-    if tau is not None:
-        tau = np.where(np.isfinite(tau), rc(np.where(np.isfinite(tau), tau, 0.0)), tau)
-    if start is not None:
-        start = np.round(start / _ROUND) * _ROUND
-    return rc(u), rc(v), rc(p), k1, k2, tau, start
+    j = np.argmin(D, axis=0)
+    low = D[j, np.arange(D.shape[1])] + _TIE
+    tie = np.flatnonzero(np.count_nonzero(D <= low, axis=0) > 1)
+    if len(tie):
+        at = a[:, tie]
+        ca[:, tie] = np.cos(at)
+        sa[:, tie] = np.sin(at)
+        D[:, tie] = _conjugate_cost(ca[:, tie], sa[:, tie], _columns(blk, tie))[0]
+        j[tie] = np.argmin(D[:, tie], axis=0)
+    return j
 
 
-def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, tau_weight=10.0):
+def _closest_conjugate(u, v, ls: _LocalStep, start=None):
     """Per face, the conjugate pair closest to the line pair ``(u, v)`` (unit complex in the face frame).
 
     The conjugate direction of ``a`` (angle from the principal direction ``p``) is ``b(a) = arg(−k2 sin a +
     i k1 cos a)``; the pair ``(a, b(a))`` minimizing ``sin²(a − α) + sin²(b − β)`` (either assignment) over pairs
-    at least ``min_angle`` apart is found by sampling ``a`` and refining. ``start`` (previous optimum angles)
-    replaces the coarse sampling by three candidates (the previous optimum and the two current directions).
-    ``tau`` (unit complex, NaN where absent) adds ``tau_weight · sin²`` of the nearer direction's angle to a
-    boundary tangent. Returns the pair and the optimal angles.
+    at least ``min_angle`` apart is found by sampling ``a`` and refining (the samples' cosines and sines are
+    rotations of the best sample's, no trigonometric call per sample). ``start`` (previous optimum angles)
+    replaces the coarse sampling by three candidates (the previous optimum and the two current directions). The
+    tangent term of :func:`_local_step` adds ``tau_weight · sin²`` of the nearer direction's angle to a boundary
+    tangent. Returns the pair and the optimal angles.
+
+    The search runs on blocks of :data:`_CHUNK` faces (real arithmetic only); the complex products stay on whole
+    arrays: numpy's complex product of a block can differ by an ulp from the same product in a whole-array
+    operation, and the stages after the field turn such ulps into a different candidate.
     """
     m = len(u)
-    u, v, p, k1, k2, tau, start = _rounded_inputs(u, v, p, k1, k2, tau, start)
+    u, v = _round_unit(u), _round_unit(v)
+    p = ls.p
     pc = np.conj(p)
+    zu = u * pc
+    zv = v * pc
     A2 = (u * pc) ** 2  # doubled angles relative to the principal direction
     B2 = (v * pc) ** 2
-    T2 = None
-    if tau is not None:
-        T2 = np.where(np.isfinite(tau), (np.where(np.isfinite(tau), tau, 0.0) * pc) ** 2, 0.0)
-    smin = np.sin(min_angle) ** 2
-    tau_weight = np.broadcast_to(np.asarray(tau_weight, dtype=np.float64), (m,))
     best = np.empty(m)
+    swap = np.empty(m, dtype=bool)
+    if start is not None:
+        start = np.round(start / _ROUND) * _ROUND
     for lo in range(0, m, _CHUNK):
-        sl = slice(lo, min(m, lo + _CHUNK))
-        args = (k1[sl], k2[sl], A2[sl], B2[sl], None if T2 is None else T2[sl], smin, tau_weight[sl])
-        if start is None:
-            a = np.broadcast_to(np.arange(_GRID) * (np.pi / _GRID), (sl.stop - sl.start, _GRID))
-            step, levels = np.pi / _GRID, 3
-        else:
-            a = np.stack([start[sl], np.angle(u[sl] * pc[sl]), np.angle(v[sl] * pc[sl])], axis=1)
-            step, levels = np.pi / 90.0, 2
-        D, _ = _conjugate_cost(np.cos(a), np.sin(a), *args)
-        b = a[np.arange(len(a)), np.argmin(D, axis=1)]
-        offsets = np.linspace(-1.0, 1.0, 7)
-        for _ in range(levels):
-            a = b[:, None] + step * offsets[None, :]
-            D, _ = _conjugate_cost(np.cos(a), np.sin(a), *args)
-            b = a[np.arange(len(a)), np.argmin(D, axis=1)]
-            step /= 3.0
-        best[sl] = b
-    _, swap = _conjugate_cost(np.cos(best)[:, None], np.sin(best)[:, None], k1, k2, A2, B2, T2, smin, tau_weight)
-    swap = swap[:, 0]
+        hi = min(m, lo + _CHUNK)
+        blk = _block(ls, lo, hi, A2[lo:hi], B2[lo:hi])
+        best[lo:hi], swap[lo:hi] = _search(blk, zu[lo:hi], zv[lo:hi], None if start is None else start[lo:hi])
+    bcos, bsin = np.cos(best), np.sin(best)  # the pair from the optimal angle itself, not from a rotated sample
     ua = p * np.exp(1j * best)
-    x, y = -k2 * np.sin(best), k1 * np.cos(best)
+    x, y = -ls.k2 * bsin, ls.k1 * bcos
     vb = p * (x + 1j * y)
     nb = np.abs(vb)
     vb = np.where(nb > 0, vb / np.where(nb > 0, nb, 1.0), 1j * ua)
@@ -664,6 +744,42 @@ def _closest_conjugate(u, v, p, k1, k2, min_angle: float, tau=None, start=None, 
     pu = np.where((pu * np.conj(u)).real < 0, -pu, pu)
     pv = np.where((pv * np.conj(v)).real < 0, -pv, pv)
     return pu, pv, np.mod(best, np.pi)
+
+
+def _search(blk: _Block, zu, zv, start):
+    """The best angle ``a`` of a block's faces and whether the pair's second assignment wins (``zu, zv``: the
+    current pair relative to ``p``; ``start``: the previous best angles or None)."""
+    n = len(zu)
+    cols = np.arange(n)
+    if start is None:
+        a = np.repeat((np.arange(_GRID) * (np.pi / _GRID))[:, None], n, axis=1)
+        step, levels = np.pi / _GRID, 3
+        ca, sa = np.cos(a), np.sin(a)
+    else:
+        a = np.stack([start, np.angle(zu), np.angle(zv)])
+        step, levels = np.pi / 90.0, 2
+        az, bz = np.abs(zu), np.abs(zv)
+        ca = np.stack([np.cos(start), zu.real / az, zv.real / bz])
+        sa = np.stack([np.sin(start), zu.imag / az, zv.imag / bz])
+    D, _ = _conjugate_cost(ca, sa, blk)
+    j = _best_sample(a, ca, sa, D, blk)
+    b, bc, bs, bD = a[j, cols], ca[j, cols], sa[j, cols], D[j, cols]
+    a, ca, sa, D = (np.empty((len(_OFFSETS), n)) for _ in range(4))
+    for _ in range(levels):
+        # the samples b + step · offset; the middle one (offset 0) is b itself, its cost is known
+        d = step * _OFFSETS[_AROUND]
+        cd, sd = np.cos(d)[:, None], np.sin(d)[:, None]
+        a[_AROUND] = b[None, :] + d[:, None]
+        ca[_AROUND] = bc * cd - bs * sd  # cos, sin of b + d
+        sa[_AROUND] = bs * cd + bc * sd
+        a[_MID], ca[_MID], sa[_MID] = b, bc, bs
+        D[_AROUND] = _conjugate_cost(ca[_AROUND], sa[_AROUND], blk)[0]
+        D[_MID] = bD
+        j = _best_sample(a, ca, sa, D, blk)
+        b, bc, bs, bD = a[j, cols], ca[j, cols], sa[j, cols], D[j, cols]
+        step /= 3.0
+    swap = _conjugate_cost(np.cos(b)[None, :], np.sin(b)[None, :], blk, want_swap=True)[1][0]
+    return b, swap
 
 
 def _line_angle(a, b) -> np.ndarray:
@@ -874,9 +990,9 @@ def _local_global(pb: _ConjugateProblem, u, v, a, wc: np.ndarray, active: np.nda
     """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve."""
     luX = _factor(pb.LX + sp.diags((wc + pb.w0).astype(complex)))
     luY = _factor(pb.LY + sp.diags((wc + pb.w0).astype(complex)))
-    cv = pb.cv
+    ls = _local_step(pb.p, pb.cv.k1, pb.cv.k2, pb.min_angle, pb.tau, pb.tau_w)
     for _ in range(count):
-        pu, pv, a = _closest_conjugate(u, v, pb.p, cv.k1, cv.k2, pb.min_angle, pb.tau, start=a, tau_weight=pb.tau_w)
+        pu, pv, a = _closest_conjugate(u, v, ls, start=a)
         pu = np.where(active, pu, u)
         pv = np.where(active, pv, v)
         if pb.fixed is not None:
@@ -885,7 +1001,7 @@ def _local_global(pb: _ConjugateProblem, u, v, a, wc: np.ndarray, active: np.nda
         X = luX.solve(wc * Xp + pb.w0 * pb.X0)
         Y = luY.solve(wc * Yp + pb.w0 * pb.Y0)
         u, v = _roots(X, Y)
-    pu, pv, _ = _closest_conjugate(u, v, pb.p, cv.k1, cv.k2, pb.min_angle, pb.tau, start=a, tau_weight=pb.tau_w)
+    pu, pv, _ = _closest_conjugate(u, v, ls, start=a)
     return u, v, a, pu, pv
 
 

@@ -295,6 +295,72 @@ def test_conjugate_field_real_meshes(name):
     assert len(c.singularities) <= 25
 
 
+def _local_inputs(m=3000, seed=0):
+    """Random local-step inputs with the degenerate cases: flat, parabolic, umbilic (k1 = k2) and minimal
+    (k1 = −k2) faces, and boundary tangents on 5 % of the faces."""
+    rng = np.random.default_rng(seed)
+    unit = lambda: np.exp(1j * rng.uniform(0, 2 * np.pi, m))  # noqa: E731
+    u, v, p = unit(), unit(), unit()
+    k1, k2 = rng.normal(size=m), rng.normal(size=m)
+    k2[:100] = 0.0
+    k1[100:200] = k2[100:200] = 0.0
+    k1[200:300] = k2[200:300]
+    k1[300:400] = -k2[300:400]
+    tau = np.where(rng.random(m) < 0.05, unit(), np.nan)
+    return u, v, p, k1, k2, tau
+
+
+def test_local_step_returns_the_closest_conjugate_pair():
+    """The local step's pair is conjugate (II(a, b) = 0 in the principal frame); cold, it is at least the minimum
+    angle wide and its cost within the sampling's resolution of the best of 3600 angles; warm, its cost is never
+    above the start angle's."""
+    from components.fields.field import _closest_conjugate, _conjugate_cost, _block, _local_step
+
+    u, v, p, k1, k2, _ = _local_inputs(1000)
+    curved = (np.abs(k1) + np.abs(k2)) > 0
+    ls = _local_step(p, k1, k2, np.radians(25.0))
+    zu, zv = u * np.conj(ls.p), v * np.conj(ls.p)
+    blk = _block(ls, 0, len(u), zu * zu, zv * zv)
+
+    def cost(a):
+        return _conjugate_cost(np.cos(a)[None], np.sin(a)[None], blk)[0][0]
+
+    start = np.random.default_rng(1).uniform(0, np.pi, len(u))
+    for warm in (None, start):
+        pu, pv, a = _closest_conjugate(u, v, ls, start=warm)
+        assert np.allclose(np.abs(pu), 1.0) and np.allclose(np.abs(pv), 1.0)
+        x, y = pu * np.conj(ls.p), pv * np.conj(ls.p)  # in the principal frame
+        II = ls.k1 * x.real * y.real + ls.k2 * x.imag * y.imag
+        assert np.abs(II[curved]).max() < 1e-12
+        if warm is None:  # (warm from random angles, all three candidates may be narrower)
+            assert np.degrees(np.abs(np.angle((pu * np.conj(pv)) ** 2)) / 2).min() >= 25.0 - 1e-9
+            dense = np.linspace(0, np.pi, 3600, endpoint=False)[:, None] + np.zeros(len(u))
+            best = _conjugate_cost(np.cos(dense), np.sin(dense), blk)[0].min(axis=0)
+            assert (cost(a) - best).max() < 0.01  # the last refinement's samples are 0.28° apart
+            assert np.mean(cost(a) - best > 1e-3) < 0.1
+        else:
+            assert np.all(cost(a) <= cost(warm) + 1e-12)
+
+
+def test_local_step_does_not_depend_on_blocks_or_units(monkeypatch):
+    """The search runs on blocks of faces: the result is the same bit for bit with other block sizes, and with the
+    curvatures scaled by 1000 (the step sees their ratio only, rounded)."""
+    import components.fields.field as field_module
+    from components.fields.field import _closest_conjugate, _local_step
+
+    u, v, p, k1, k2, tau = _local_inputs()
+    ref = _closest_conjugate(u, v, _local_step(p, k1, k2, np.radians(25.0), tau))
+    warm = _closest_conjugate(u, v, _local_step(p, k1, k2, np.radians(25.0), tau), start=ref[2])
+    monkeypatch.setattr(field_module, "_CHUNK", 700)
+    for scale in (1.0, 1e3, 1e-3):
+        ls = _local_step(p, k1 * scale, k2 * scale, np.radians(25.0), tau)
+        got = _closest_conjugate(u, v, ls)
+        for x, y in zip(got, ref):
+            assert np.array_equal(x, y)
+        for x, y in zip(_closest_conjugate(u, v, ls, start=ref[2]), warm):
+            assert np.array_equal(x, y)
+
+
 def test_conjugate_field_of_principal_directions_is_a_fixed_point():
     # a torus: principal directions are conjugate and smooth, so the optimization keeps them
     V, T = _torus()

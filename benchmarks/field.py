@@ -1,0 +1,104 @@
+"""The direction-field stage of the conjugate-field pipeline (issue #21), part by part, in CPU seconds.
+
+Run from the project root::
+
+    /work/venv/bin/python benchmarks/field.py                      # 20k and 200k triangles
+    /work/venv/bin/python benchmarks/field.py --sizes 20000 --repeat 3
+
+The stage is :func:`components.fields.parametrize.direction_field` with the pipeline's options (the conjugate field,
+alignment 0.1) on the input moved to its bounding-box centre, as ``candidate_mesh`` runs it: the curvature fit, the
+smooth PolyVector field, the conjugate local-global iterations (of which the local step, ``_closest_conjugate``, and
+the sparse factorizations, ``_factor``, are timed separately). Inputs are ``benchmarks/fields.py``'s free-form patch
+with a hole. Each size runs in a fresh forked process (peak memory is that run's); the machine's cores are shared, so
+compare CPU seconds measured in the same run. ``field`` is a fingerprint of the result (a hash of ``U, W``): equal
+fingerprints mean the same field bit for bit, hence the same candidate downstream (the stages after the field turn
+even an ulp of difference into another candidate).
+
+Measured 2026-12 on the 2-core project machine, busy (other agents running), HEAD b4b597d → the vectorized local
+step (one set of rounded inputs per run instead of per iteration, the samples' cosines by rotation instead of
+trigonometric calls, the known middle sample not re-evaluated, the tangent term only on boundary faces, blocks of
+8192 faces), same field bit for bit (same fingerprints a466bc5ebe4e at 20k, 0920de2fb254 at 200k), CPU seconds:
+20k total 2.45–2.75 → 1.90–1.93 (local step 1.36–1.52 → 0.84–0.86); 200k 31.0 → 25.4 (local step 14.1 → 8.2;
+the rest: 6 complex factorizations 7.8–8.1, 121 solves ~4.6, smooth field 4.4, curvature 1.1–1.3), peak 735 MB.
+Issue #21's targets for the stage (20k < 0.8 s, 200k < 8 s) need fewer iterations or factorizations, which change
+the field: with 20 iterations instead of 40 the 20k stage halves, but other candidates come out downstream.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))  # forked.py, fields.py
+
+import components.fields.field as field_module  # noqa: E402
+from components.fields.field import conjugate_frame_field, field_curvature, smooth_frame_field  # noqa: E402
+from fields import patch  # noqa: E402
+from forked import peak_mb, run_forked  # noqa: E402
+
+COLUMNS = ("triangles", "curvature", "smooth", "conjugate", "local step", "factor", "total", "peak MB",
+           "singularities", "released", "mean conj. err", "field")
+
+
+def _timed(module, name: str, acc: dict):
+    """Wrap ``module.name`` so its CPU seconds add up in ``acc[name]``."""
+    fn = getattr(module, name)
+
+    def wrapper(*args, **kwargs):
+        t = time.process_time()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            acc[name] = acc.get(name, 0.0) + time.process_time() - t
+
+    setattr(module, name, wrapper)
+
+
+def _run(n: int, repeat: int) -> tuple:
+    V, T = patch(n)
+    V = V - 0.5 * (V.min(axis=0) + V.max(axis=0))
+    acc: dict = {}
+    _timed(field_module, "_closest_conjugate", acc)
+    _timed(field_module, "_factor", acc)
+    best = None
+    for _ in range(repeat):
+        acc.clear()
+        t0 = time.process_time()
+        cv = field_curvature(V, T)
+        t1 = time.process_time()
+        s = smooth_frame_field(V, T, alignment=0.1, curvature=cv)
+        t2 = time.process_time()
+        c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv)
+        t3 = time.process_time()
+        row = (t1 - t0, t2 - t1, t3 - t2, acc.get("_closest_conjugate", 0.0), acc.get("_factor", 0.0), t3 - t0)
+        if best is None or row[-1] < best[-1]:
+            best = row
+    digest = hashlib.sha1(np.ascontiguousarray(c.U).tobytes() + np.ascontiguousarray(c.W).tobytes()).hexdigest()
+    return (len(T),) + best + (peak_mb(), len(c.singularities), int(c.released.sum()),
+                               float(c.conjugacy_error.mean()), digest[:12])
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[20000, 200000], help="triangle counts")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per size (the fastest is shown)")
+    args = ap.parse_args(argv)
+    print(" | ".join(COLUMNS))
+    for n in args.sizes:
+        r = run_forked(_run, n, args.repeat, failed=None)
+        if r is None:
+            print(f"{n} | failed")
+            continue
+        tri, cu, sm, co, lo, fa, tot, mb, sing, rel, err, fp = r
+        print(f"{tri} | {cu:.2f} | {sm:.2f} | {co:.2f} | {lo:.2f} | {fa:.2f} | {tot:.2f} | {mb:.0f} | {sing} | "
+              f"{rel} | {err:.2e} | {fp}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
