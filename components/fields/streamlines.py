@@ -140,15 +140,19 @@ class _Tracer:
         g = corner_f[order[first + pos]]
         f = corner_f[k]
         out = np.zeros((m, 2, 3), dtype=complex)
-        cands = np.stack([U[g], W[g]], axis=1)  # (p, 2, 3)
-        area = fr.area[g]
+        # the candidates of every pair: (p, 3) each (np.take: a row gather several times faster than U[g])
+        Ug, Wg = np.take(U, g, axis=0), np.take(W, g, axis=0)
+        area = np.take(fr.area, g)
+        tot = np.bincount(k, weights=area, minlength=3 * m).reshape(m, 3)
         for fam, X in enumerate((U, W)):
-            ref = X[f]
-            dots = np.einsum("pkj,pj->pk", cands, ref)
-            pick = np.argmax(np.abs(dots), axis=1)
-            sgn = np.sign(dots[np.arange(len(k)), pick])
+            ref = np.take(X, f, axis=0)
+            du = np.einsum("pj,pj->p", Ug, ref)
+            dw = np.einsum("pj,pj->p", Wg, ref)
+            pick = np.abs(dw) > np.abs(du)  # W[g] better aligned (the first one on a tie)
+            sgn = np.sign(np.where(pick, dw, du))
             sgn[sgn == 0] = 1.0
-            vec = cands[np.arange(len(k)), pick] * (sgn * area)[:, None]
+            vec = np.where(pick[:, None], Wg, Ug)
+            vec *= (sgn * area)[:, None]
             acc = np.zeros((3 * m, 3))
             for d in range(3):
                 acc[:, d] = np.bincount(k, weights=vec[:, d], minlength=3 * m)
@@ -158,7 +162,6 @@ class _Tracer:
             own = np.einsum("ij,ij->i", X, fr.e1) + 1j * np.einsum("ij,ij->i", X, fr.e2)
             own = (own / np.abs(own))[:, None]
             # fall back to the face's own vector where the average cancels (around singularities)
-            tot = np.bincount(k, weights=area, minlength=3 * m).reshape(m, 3)
             ok = a > 0.5 * tot
             out[:, fam, :] = np.where(ok, z / np.where(a > 0, a, 1.0), own)
         return out
@@ -281,7 +284,7 @@ class _Tracer:
         if self.near_singularity(f, start):
             self.stop_reason = "singularity"
             return pts, False
-        tested = _Tested(pts, stop, self_distance, lag)
+        tested = _Tested(pts, stop, self_distance, lag, t0)
         reason = "length"
         eps_stuck, eps_move = 1e-9 * step, 1e-12 * step
         cur = -1
@@ -339,15 +342,26 @@ class _Tracer:
                 zr, zi = z.real, z.imag
                 m1 = (zr * z2i - zi * z2r) / den
                 m2 = (z1r * zi - z1i * zr) / den
-                b0 = (1.0 - m1 - m2, m1, m2)
+                m0 = 1.0 - m1 - m2
+                b0 = (m0, m1, m2)
                 b1 = (l0, l1, l2)
                 t, cmin = 2.0, -1
-                for c in range(3):
-                    if b1[c] < 0.0:
-                        a0 = max(b0[c], 0.0)
-                        tc = a0 / (a0 - b1[c])
-                        if tc < t:
-                            t, cmin = tc, c
+                # the corners whose barycentric goes negative, unrolled (a0 = max(b0[c], 0.0))
+                if l0 < 0.0:
+                    a0 = 0.0 if 0.0 > m0 else m0
+                    tc = a0 / (a0 - l0)
+                    if tc < t:
+                        t, cmin = tc, 0
+                if l1 < 0.0:
+                    a0 = 0.0 if 0.0 > m1 else m1
+                    tc = a0 / (a0 - l1)
+                    if tc < t:
+                        t, cmin = tc, 1
+                if l2 < 0.0:
+                    a0 = 0.0 if 0.0 > m2 else m2
+                    tc = a0 / (a0 - l2)
+                    if tc < t:
+                        t, cmin = tc, 2
                 j = (cmin + 1) % 3
                 jn = (j + 1) % 3
                 lj = b0[j] + t * (b1[j] - b0[j])
@@ -440,20 +454,30 @@ class _Tracer:
             zr, zi = z2.real, z2.imag
             l1 = (zr * zc.imag - zi * zc.real) / den
             l2 = (z1.real * zi - z1.imag * zr) / den
-            b1 = (1.0 - l1 - l2, l1, l2)
-            if not (b1[0] < 0.0 or l1 < 0.0 or l2 < 0.0):
+            l0 = 1.0 - l1 - l2
+            if not (l0 < 0.0 or l1 < 0.0 or l2 < 0.0):
                 return f, z2, d
             zr, zi = z.real, z.imag
             m1 = (zr * zc.imag - zi * zc.real) / den
             m2 = (z1.real * zi - z1.imag * zr) / den
-            b0 = (1.0 - m1 - m2, m1, m2)
+            m0 = 1.0 - m1 - m2
+            b0, b1 = (m0, m1, m2), (l0, l1, l2)
             tmin, cmin = 2.0, -1
-            for c in range(3):
-                if b1[c] < 0.0:
-                    a0 = max(b0[c], 0.0)
-                    t = a0 / (a0 - b1[c])
-                    if t < tmin:
-                        tmin, cmin = t, c
+            if l0 < 0.0:  # unrolled as in trace()
+                a0 = 0.0 if 0.0 > m0 else m0
+                t = a0 / (a0 - l0)
+                if t < tmin:
+                    tmin, cmin = t, 0
+            if l1 < 0.0:
+                a0 = 0.0 if 0.0 > m1 else m1
+                t = a0 / (a0 - l1)
+                if t < tmin:
+                    tmin, cmin = t, 1
+            if l2 < 0.0:
+                a0 = 0.0 if 0.0 > m2 else m2
+                t = a0 / (a0 - l2)
+                if t < tmin:
+                    tmin, cmin = t, 2
             j = (cmin + 1) % 3
             j1 = (j + 1) % 3
             lj = b0[j] + tmin * (b1[j] - b0[j])
@@ -480,8 +504,16 @@ class _Tracer:
 # inputs
 
 
+_VALIDATED = ContentCache("streamline meshes validated")  # the last mesh validated (both families of a net)
+
+
 def _mesh_field(V, T, U, W):
-    V, T = validate_mesh(V, T, name="mesh", kind="tri")
+    """The mesh validated (the last one kept: the two families of a network validate it once) and the field
+    checked."""
+    if isinstance(V, np.ndarray) and isinstance(T, np.ndarray):
+        V, T = _VALIDATED.get(digest(V, T), lambda: validate_mesh(V, T, name="mesh", kind="tri"))
+    else:
+        V, T = validate_mesh(V, T, name="mesh", kind="tri")
     U, W = check_field(U, W, len(T))
     return V, T, U, W
 
@@ -617,6 +649,7 @@ def trace_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray
 _CHUNK = 32  # points a trace runs ahead before its distance tests run (vectorized) on them
 _BLOCK = 16  # consecutive stored points sharing a bounding box in _Points
 _LANES = np.arange(_BLOCK)
+_ALL8 = np.frombuffer(np.ones(8, bool).tobytes(), np.uint64)[0]  # eight True bytes read as one integer
 
 
 class _Points:
@@ -635,7 +668,9 @@ class _Points:
         self.P = np.zeros((64, 3))
         self.D = np.zeros((64, 3))
         self.owner = np.zeros(64, np.int64)
-        self.box = np.zeros((8, 6))  # per block (min, -max) of its points
+        # per block (min, -max) of its points and two columns of -inf (always below): eight comparisons with a
+        # query's (point + r, r - point, 0, 0) are read as one 8-byte integer (all True: the boxes come that close)
+        self.box = np.zeros((8, 8))
         self.bstart = np.zeros(8, np.int64)
         self.bcount = np.zeros(8, np.int64)
 
@@ -682,30 +717,32 @@ class _Points:
         self.bstart = self._grown(self.bstart, b1)
         self.bcount = self._grown(self.bcount, b1)
         self.box[b0:b1, :3] = np.minimum.reduceat(P, starts, axis=0)
-        self.box[b0:b1, 3:] = -np.maximum.reduceat(P, starts, axis=0)
+        self.box[b0:b1, 3:6] = -np.maximum.reduceat(P, starts, axis=0)
+        self.box[b0:b1, 6:] = -np.inf
         self.bstart[b0:b1] = n + starts
         self.bcount[b0:b1] = np.diff(np.r_[starts, k])
         self.n, self.nb = nb, b1
 
-    def hits(self, Q, r: float, Tq=None, exclude: int = -2, before=None) -> np.ndarray:
+    def hits(self, Q, r: float, Tq=None, exclude: int = -2, before=None, first_block: int = 0) -> np.ndarray:
         """Which query points ``Q`` (q, 3) have a stored point closer than ``r`` (whose tangent is parallel to the
         query's ``Tq``, whose owner is not ``exclude``, and, with ``before`` (q,), whose owner is below the query's
-        ``before``)?"""
+        ``before``)? ``first_block``: only the points stored in that block (an index into the blocks, ``nb`` before
+        an addition) and later ones count."""
         Q = np.asarray(Q, np.float64).reshape(-1, 3)
         out = np.zeros(len(Q), bool)
         if self.nb == 0 or len(Q) == 0:
             return out
         rr = r * (1.0 + 1e-9)
         # the blocks whose box comes within rr of the query points' box: box = (lo, -hi) <= (max Q + rr, rr - min Q)
-        cand = np.flatnonzero((self.box[:self.nb] <= np.concatenate([Q.max(axis=0) + rr, rr - Q.min(axis=0)]))
-                              .all(axis=1))
+        QA = np.zeros((len(Q), 8))  # (Q + rr, rr - Q, 0, 0): a box (lo, -hi) comes within rr when box <= QA
+        QA[:, :3] = Q + rr
+        QA[:, 3:6] = rr - Q
+        cand = first_block + np.flatnonzero((self.box[first_block:self.nb] <= QA.max(axis=0)).view(np.uint64)[:, 0]
+                                            == _ALL8)
         if len(cand) == 0:
             return out
         if len(Q) > 1:  # the pairs (query point, block) within rr
-            B = self.box[cand]
-            x, y, z = Q[:, 0, None], Q[:, 1, None], Q[:, 2, None]
-            ov = ((B[None, :, 0] <= x + rr) & (B[None, :, 3] <= rr - x) & (B[None, :, 1] <= y + rr)
-                  & (B[None, :, 4] <= rr - y) & (B[None, :, 2] <= z + rr) & (B[None, :, 5] <= rr - z))
+            ov = (self.box[cand][None] <= QA[:, None]).view(np.uint64)[:, :, 0] == _ALL8
             qb, cb = np.nonzero(ov)
             if len(qb) == 0:
                 return out
@@ -744,9 +781,14 @@ class _Points:
 
 class _Tested:
     """The points of one trace waiting for their distance tests (to the stored lines, ``stop``, and to the line
-    itself), run vectorized on :data:`_CHUNK` points at a time; see :meth:`_Tracer.trace`."""
+    itself), run vectorized on :data:`_CHUNK` points at a time; see :meth:`_Tracer.trace`.
 
-    def __init__(self, pts: list, stop, self_distance: float, lag: int):
+    The self test is skipped while it cannot fire (:meth:`_far`): as long as every segment of the line so far runs
+    within a cone around the start tangent ``axis`` (``cos >= c > 0``), a point is at least ``c`` × the arc length
+    away from every earlier point, and the points it is tested against are more than ``lag`` points back. The own
+    points are then kept aside and stored (in the same order) when a test has to run."""
+
+    def __init__(self, pts: list, stop, self_distance: float, lag: int, axis=None):
         self.pts = pts
         self.stop = stop
         self.r_self = self_distance
@@ -754,6 +796,41 @@ class _Tested:
         self.own = _Points(math.cos(math.radians(20.0))) if self_distance > 0 else None
         self.idx, self.P, self.T, self.self_tested = [], [], [], []
         self.seq = 0  # tested points before the pending ones
+        self.waiting: list = []  # own points not stored yet: add_points arguments, in order
+        self.axis = None
+        if axis is not None:
+            a = np.asarray(axis, np.float64)
+            na = float(np.linalg.norm(a))
+            self.axis = a / na if na > 0 else None
+        self.arc = np.zeros(1)  # arc length of the line at its points 0, 1, ... (measured so far)
+        self.cmin = np.ones(1)  # smallest cosine to the axis of the segments up to each point
+
+    def _far(self, I: np.ndarray) -> bool:
+        """No point of the line indices ``I`` can be within the self distance of a point more than ``lag`` points
+        before it (the own points a test would see)."""
+        if len(I) == 0:
+            return True
+        if self.axis is None:
+            return False
+        b = int(I.max()) + 1
+        a = len(self.arc)
+        if b > a:  # extend the arc lengths and cosines to point b - 1
+            P = np.array(self.pts[a - 1:b], np.float64)
+            D = P[1:] - P[:-1]
+            L = np.sqrt(D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1] + D[:, 2] * D[:, 2])
+            c = np.ones(len(L))
+            pos = L > 0
+            c[pos] = (D[pos] @ self.axis) / L[pos]
+            self.arc = np.concatenate([self.arc, self.arc[-1] + np.cumsum(L)])
+            self.cmin = np.concatenate([self.cmin, np.minimum.accumulate(np.minimum(c, self.cmin[-1]))])
+        m = I - self.lag - 1  # the latest point a test of I could see
+        back = m >= 0
+        if not back.any():
+            return True
+        I, m = I[back], m[back]
+        c = self.cmin[I]
+        # a margin far above the rounding of these sums: the same verdict as the distances the test measures
+        return bool(np.all((c > 0) & (c * (self.arc[I] - self.arc[m]) >= self.r_self * (1.0 + 1e-6))))
 
     def add(self, i: int, p, t, own: bool = True) -> bool:
         """Point ``pts[i] = p`` with tangent ``t`` waits for its tests (``own``: the self test too); True when a
@@ -784,11 +861,15 @@ class _Tested:
             # a point sees those of the earlier points only)
             sel = own_t & (idx >= self.lag)
             if sel.any():
-                self.own.add_points(np.array([self.pts[i] for i in (idx[sel] - self.lag).tolist()]), T[sel],
-                                    seq[sel])
-            hit = self.own.hits(P[:first], self.r_self, T[:first], before=seq[:first]) & own_t[:first]
-            if hit.any():
-                first, why = int(np.argmax(hit)), "self"
+                self.waiting.append((np.array([self.pts[i] for i in (idx[sel] - self.lag).tolist()]), T[sel],
+                                     seq[sel]))
+            if not self._far(idx[:first][own_t[:first]]):
+                for args in self.waiting:
+                    self.own.add_points(*args)
+                self.waiting = []
+                hit = self.own.hits(P[:first], self.r_self, T[:first], before=seq[:first]) & own_t[:first]
+                if hit.any():
+                    first, why = int(np.argmax(hit)), "self"
         if why is not None:
             return self.idx[first], why
         self.seq += n
@@ -1010,10 +1091,10 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
                 out.append((f, z, k, p0, tr.vector3(f, tr.face_vector(f, k))))
         return out
 
-    def usable(q):  # the seeds not too close to an accepted line
+    def usable(q, since: int = 0):  # the seeds not too close to an accepted line (stored from block ``since`` on)
         if not q or not len(grid):
             return q
-        near = grid.hits([e[3] for e in q], r_seed, [e[4] for e in q]).tolist()
+        near = grid.hits([e[3] for e in q], r_seed, [e[4] for e in q], first_block=since).tolist()
         return [e for e, n in zip(q, near) if not n]
 
     queue = usable(entries(queue))
@@ -1050,6 +1131,7 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
         seg = np.linalg.norm(np.diff(arr, axis=0), axis=1)
         if seg.sum() < max(sd.min_length, 1e-12 * sep):  # relative: the same at any scale
             continue
+        nb = grid.nb  # the blocks of the lines before this one (the queued seeds were tested against them)
         lines.append(arr)
         line_locs.append(locs)
         reasons.append(list(why))
@@ -1059,7 +1141,8 @@ def _seed_lines(sd: _Seeding, queue: list, cover: list, fam: int):
         if total > _MAX_POINTS:
             log.warning("evenly_spaced_streamlines: point budget reached, stopping")
             break
-        queue = usable(queue[head:] + entries(_offset_seeds(sd, arr, seg, k, locs)))
+        # the queued seeds, tested against the earlier lines already, only against the new one
+        queue = usable(queue[head:], since=nb) + usable(entries(_offset_seeds(sd, arr, seg, k, locs)))
         head = 0
     return lines, reasons, line_fam, line_locs
 
@@ -1156,19 +1239,16 @@ def _add_line(grid, arr, i, reach):
     own = np.full(len(arr), -1, dtype=np.int64)
     own[cum >= cum[-1] - reach] = 2 * i + 1
     own[cum <= reach] = 2 * i
+    D = np.zeros_like(arr)  # central-difference unit tangents (one-sided at the ends)
+    if len(arr) > 1:
+        D[1:-1] = arr[2:] - arr[:-2]
+        D[0] = arr[1] - arr[0]
+        D[-1] = arr[-1] - arr[-2]
+    L = np.linalg.norm(D, axis=1, keepdims=True)
+    D = np.divide(D, L, out=np.zeros_like(D), where=L > 0)
     for o in np.unique(own).tolist():
-        sel = np.flatnonzero(own == o)
-        a, b = max(sel[0] - 1, 0), min(sel[-1] + 2, len(arr))  # neighbours give the end tangents
-        P = arr[a:b]
-        keep = np.isin(np.arange(a, b), sel)
-        D = np.zeros_like(P)
-        if len(P) > 1:
-            D[1:-1] = P[2:] - P[:-2]
-            D[0] = P[1] - P[0]
-            D[-1] = P[-1] - P[-2]
-        L = np.linalg.norm(D, axis=1, keepdims=True)
-        D = np.divide(D, L, out=np.zeros_like(D), where=L > 0)
-        grid.add_points(P[keep], D[keep], owner=o)
+        sel = own == o
+        grid.add_points(arr[sel], D[sel], owner=o)
 
 
 # ----------------------------------------------------------------------------------------------

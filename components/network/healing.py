@@ -135,8 +135,8 @@ def _cross3(a, b):
 
 def _angle(a, b) -> float:
     """Angle between two 3-vectors, radians (plain floats: cheaper than numpy for one pair)."""
-    ax, ay, az = float(a[0]), float(a[1]), float(a[2])
-    bx, by, bz = float(b[0]), float(b[1]), float(b[2])
+    ax, ay, az = a.tolist() if isinstance(a, np.ndarray) else a
+    bx, by, bz = b.tolist() if isinstance(b, np.ndarray) else b
     cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
     return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz)
 
@@ -173,6 +173,35 @@ def _angles3(P, Q) -> np.ndarray:
     return out
 
 
+def _angles3_many(P, Q) -> np.ndarray:
+    """:func:`_angles3` of ``n`` cells with ``k`` corners each at once: ``P (n, k, 2)``, ``Q (n, k, 3)`` → ``(n, k)``,
+    the same numbers (the same operations in the same order, vectorized over the cells)."""
+    n, k = Q.shape[:2]
+    X, Y, Z = Q[..., 0], Q[..., 1], Q[..., 2]
+    cx, cy, cz = X[:, 0].copy(), Y[:, 0].copy(), Z[:, 0].copy()
+    for i in range(1, k):
+        cx += X[:, i]
+        cy += Y[:, i]
+        cz += Z[:, i]
+    Yx, Yy, Yz = X - (cx / k)[:, None], Y - (cy / k)[:, None], Z - (cz / k)[:, None]
+    nx, ny, nz = np.zeros(n), np.zeros(n), np.zeros(n)
+    for i in range(k):
+        j = (i + 1) % k
+        nx += Yy[:, i] * Yz[:, j] - Yz[:, i] * Yy[:, j]
+        ny += Yz[:, i] * Yx[:, j] - Yx[:, i] * Yz[:, j]
+        nz += Yx[:, i] * Yy[:, j] - Yy[:, i] * Yx[:, j]
+    nxt, prv = _roll(k)
+    ax, ay, az = X[:, nxt] - X, Y[:, nxt] - Y, Z[:, nxt] - Z
+    bx, by, bz = X[:, prv] - X, Y[:, prv] - Y, Z[:, prv] - Z
+    wx, wy, wz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    a3 = np.degrees(np.arctan2(np.sqrt(wx * wx + wy * wy + wz * wz), ax * bx + ay * by + az * bz))
+    U, V = P[..., 0], P[..., 1]
+    reflex = (U[:, nxt] - U) * (V[:, prv] - V) - (V[:, nxt] - V) * (U[:, prv] - U) < 0.0
+    if k > 3:
+        reflex |= wx * nx[:, None] + wy * ny[:, None] + wz * nz[:, None] < 0.0
+    return np.where(reflex, 360.0 - a3, a3)
+
+
 def _split_angles3(P, Q, i, tp, tq) -> np.ndarray:
     """The two new corners (degrees, as in :func:`_angles3`) at corner ``i`` of a cell split by a segment to the
     target (plane ``tp``, surface ``tq``): the one after the next edge first."""
@@ -183,6 +212,22 @@ def _split_angles3(P, Q, i, tp, tq) -> np.ndarray:
         a3 = math.degrees(_angle(a, b))
         out.append(a3 if u <= 180.0 else 360.0 - a3)
     return np.array(out)
+
+
+def _split_pair(P: list, Q: list, i: int, j: int) -> tuple:
+    """:func:`_split_angles3` of corner ``i`` split towards corner ``j`` (plane ``P`` and surface ``Q`` corners as
+    lists of plain floats; the same numbers)."""
+    k = len(P)
+    (px, py), (nx_, ny_), (qx, qy), (tx, ty) = P[i], P[(i + 1) % k], P[i - 1], P[j]
+    vnx, vny, vpx, vpy, dx, dy = nx_ - px, ny_ - py, qx - px, qy - py, tx - px, ty - py
+    two_pi = 2 * math.pi
+    u1 = math.degrees(math.atan2(vnx * dy - vny * dx, vnx * dx + vny * dy) % two_pi)
+    u2 = math.degrees(math.atan2(dx * vpy - dy * vpx, dx * vpx + dy * vpy) % two_pi)
+    q, qn, qp, t = Q[i], Q[(i + 1) % k], Q[i - 1], Q[j]
+    d = (t[0] - q[0], t[1] - q[1], t[2] - q[2])
+    a1 = math.degrees(_angle((qn[0] - q[0], qn[1] - q[1], qn[2] - q[2]), d))
+    a2 = math.degrees(_angle(d, (qp[0] - q[0], qp[1] - q[1], qp[2] - q[2])))
+    return (a1 if u1 <= 180.0 else 360.0 - a1, a2 if u2 <= 180.0 else 360.0 - a2)
 
 
 def _area3(X) -> float:
@@ -203,6 +248,26 @@ def _area3(X) -> float:
     return 0.5 * math.sqrt(nx * nx + ny * ny + nz * nz)
 
 
+def _areas3_many(Q) -> np.ndarray:
+    """:func:`_area3` of ``n`` cells with ``k`` corners each at once: ``Q (n, k, 3)`` → ``(n,)``, the same numbers
+    (the same operations in the same order, vectorized over the cells)."""
+    n, k = Q.shape[:2]
+    X, Y, Z = Q[..., 0], Q[..., 1], Q[..., 2]
+    cx, cy, cz = X[:, 0].copy(), Y[:, 0].copy(), Z[:, 0].copy()
+    for i in range(1, k):
+        cx += X[:, i]
+        cy += Y[:, i]
+        cz += Z[:, i]
+    A, B, C = X - (cx / k)[:, None], Y - (cy / k)[:, None], Z - (cz / k)[:, None]
+    nx, ny, nz = np.zeros(n), np.zeros(n), np.zeros(n)
+    for i in range(k):
+        j = (i + 1) % k
+        nx += B[:, i] * C[:, j] - C[:, i] * B[:, j]
+        ny += C[:, i] * A[:, j] - A[:, i] * C[:, j]
+        nz += A[:, i] * B[:, j] - B[:, i] * A[:, j]
+    return 0.5 * np.sqrt(nx * nx + ny * ny + nz * nz)
+
+
 class _Complex:
     """Faces as node lists with a half-edge map, node positions and kinds; edits are checked and atomic."""
 
@@ -214,6 +279,7 @@ class _Complex:
         self.X = [np.asarray(p, np.float64) for p in X]
         self.kind = [int(k) for k in kind]
         self.next_id = 0
+        self.inserted = 0  # cells inserted so far (see made_since)
         self._angle_cache: dict = {}
         for f in faces:
             self._insert(self._new_id(), list(f))
@@ -224,6 +290,7 @@ class _Complex:
 
     def _insert(self, fid, f):
         self.faces[fid] = f
+        self.inserted += 1
         for a, b in zip(f, f[1:] + f[:1]):
             self.he[(a, b)] = fid
         for v in f:
@@ -237,6 +304,18 @@ class _Complex:
         for v in f:
             self.vf[v].discard(fid)
         return f
+
+    def mark(self) -> tuple:
+        """The state :meth:`made_since` compares with."""
+        return self.next_id, self.inserted
+
+    def made_since(self, mark: tuple) -> list:
+        """The ids of the cells made since ``mark`` (:meth:`mark`) that still exist, in the order of ``faces``
+        (a scan of the cells inserted since, from the end: a cell restored by a refused edit keeps its old id)."""
+        first, inserted = mark
+        out = [g for _, g in zip(range(self.inserted - inserted), reversed(self.faces)) if g >= first]
+        out.reverse()
+        return out
 
     def add_node(self, uv, X, kind) -> int:
         self.uv.append(np.asarray(uv, np.float64))
@@ -253,6 +332,35 @@ class _Complex:
 
     def points(self, f) -> np.ndarray:
         return np.array([self.X[v] for v in f])
+
+    def prime_angles(self) -> None:
+        """Compute the angles of every cell not cached yet at once (:func:`_angles3_many`: the numbers
+        :meth:`angles` gives, a cell at a time)."""
+        todo: dict[int, list] = defaultdict(list)
+        cache = self._angle_cache
+        for f in self.faces.values():
+            key = tuple(f)
+            if key not in cache:
+                todo[len(key)].append(key)
+        if not todo:
+            return
+        UV, X = np.array(self.uv).reshape(-1, 2), np.array(self.X).reshape(-1, 3)
+        for keys in todo.values():
+            idx = np.array(keys, np.int64)
+            for key, row in zip(keys, _angles3_many(UV[idx], X[idx])):
+                cache[key] = row
+
+    def areas(self) -> dict:
+        """``{face id: area}`` of every cell (3D, :func:`_area3`, computed at once by :func:`_areas3_many`)."""
+        groups: dict[int, list] = defaultdict(list)
+        for fid, f in self.faces.items():
+            groups[len(f)].append(fid)
+        X = np.array(self.X).reshape(-1, 3)
+        out = {}
+        for fids in groups.values():
+            idx = np.array([self.faces[g] for g in fids], np.int64)
+            out.update(zip(fids, _areas3_many(X[idx]).tolist()))
+        return {fid: out[fid] for fid in self.faces}
 
     def angles(self, f) -> np.ndarray:
         """Interior angles of cell ``f`` (degrees, :func:`_angles3`; cached until a node moves)."""
@@ -301,14 +409,19 @@ class _Complex:
 
     def edges(self) -> np.ndarray:
         """Undirected edges ``(e, 2)`` (each once)."""
-        E = {(min(a, b), max(a, b)) for (a, b) in self.he}
-        return np.array(sorted(E), np.int64).reshape(-1, 2)
+        if not self.he:
+            return np.zeros((0, 2), np.int64)
+        H = np.sort(np.array(list(self.he), np.int64), axis=1)
+        n = int(H.max()) + 1
+        key = np.unique(H[:, 0] * n + H[:, 1])  # sorted as the pairs (a, b)
+        return np.stack([key // n, key % n], axis=1)
 
     def corner_angles(self):
         """``[(face id, node, interior angle in degrees)]`` of every corner, in the plane."""
         out = []
+        self.prime_angles()
         for fid, f in self.faces.items():
-            for v, a in zip(f, self.angles(f)):
+            for v, a in zip(f, self.angles(f).tolist()):
                 out.append((fid, v, float(a)))
         return out
 
@@ -368,26 +481,27 @@ def _split_choice(P, Q, min_angle: float, max_face_size: int, diag_scale: float,
     """
     k = len(P)
     ang = _angles3(P, Q)
-    bad = (ang < min_angle) | (ang > 180.0 - min_angle)
-    nbad = int(bad.sum())
+    hi = 180.0 - min_angle
+    bad = ((ang < min_angle) | (ang > hi)).tolist()
+    nbad = sum(bad)
     if nbad == 0 and k <= max_face_size:
         return None
+    Pl, Ql = P.tolist(), Q.tolist()  # plain floats: the loop below runs for every pair of corners
     best, best_key = None, None
     for i in range(k):
         for j in range(i + 2, k):
             if i == 0 and j == k - 1:
                 continue
-            if not _diagonal_inside(P, i, j):
+            if not _diagonal_inside(Pl, i, j):
                 continue
-            d = P[j] - P[i]
-            new = np.r_[_split_angles3(P, Q, i, P[j], Q[j]), _split_angles3(P, Q, j, P[i], Q[i])]
-            left = nbad - int(bad[i]) - int(bad[j]) + int(np.sum((new < min_angle) | (new > 180.0 - min_angle)))
+            new = _split_pair(Pl, Ql, i, j) + _split_pair(Pl, Ql, j, i)
+            left = nbad - bad[i] - bad[j] + sum(a < min_angle or a > hi for a in new)
             sizes = (j - i + 1, k - (j - i) + 1)
             big = sum(s > max_face_size for s in sizes)
-            quality = float(np.minimum(new, 180.0 - new).min())
+            quality = min(min(a, 180.0 - a) for a in new)
             quads = sum(s == 4 for s in sizes)
             tris = sum(s == 3 for s in sizes)
-            length = float(np.hypot(*d)) / diag_scale
+            length = float(np.hypot(Pl[j][0] - Pl[i][0], Pl[j][1] - Pl[i][1])) / diag_scale
             stars = 0 if star_cost is None else star_cost(i, new[0], new[1]) + star_cost(j, new[2], new[3])
             irr = 0 if irregular is None else irregular(i) + irregular(j)
             if k <= max_face_size and ((strict >= 1 and stars) or (strict >= 2 and irr)):
@@ -445,11 +559,11 @@ def _split_face(cx: _Complex, fid: int, min_angle: float, max_face_size: int, di
         if choice is None:
             continue
         i, j = choice
-        before = set(cx.faces)
+        since = cx.mark()
         if not cx.edit([g], [f[i:j + 1], f[j:] + f[:i + 1]]):
             continue
         done += 1
-        todo += [h for h in cx.faces if h not in before]
+        todo += cx.made_since(since)
     return done
 
 
@@ -805,19 +919,19 @@ def _split_bad(cx, min_angle, max_face_size, max_criterion, lift, project, count
     changed = False
     todo = list(cx.faces)
     budget = 4 * len(todo) + 100
+    cx.prime_angles()
     while todo and budget > 0:
         budget -= 1
         fid = todo.pop()
         f = cx.faces.get(fid)
         if f is None:
             continue
-        ang = cx.angles(f)
-        if not (len(f) > max_face_size or np.any(ang > 180.0 - min_angle)):
+        if not (len(f) > max_face_size or max(cx.angles(f).tolist()) > 180.0 - min_angle):
             continue
-        before = set(cx.faces)
+        since = cx.mark()
         for strict in (2, 1, 0):  # first without irregular nodes or stars far from conical, then without the latter
             n = _split_face(cx, fid, min_angle, max_face_size, scale, max_criterion, strict)
-            new = [g for g in cx.faces if g not in before]
+            new = cx.made_since(since)
             if not n and fid in cx.faces:
                 new = _extend_through(cx, fid, min_angle, max_criterion, lift, project, strict)
                 n = int(bool(new))
@@ -875,14 +989,14 @@ def _extend_through(cx: _Complex, fid: int, min_angle: float, max_criterion: flo
     if best is None:
         return []
     _, i, e, cand = best
-    before = set(cx.faces)
+    since = cx.mark()
     if cand[0] == "corner":
         j = cand[2]
         a, b = (i, j) if i < j else (j, i)
         ok = cx.edit([fid], [f[a:b + 1], f[b:] + f[:a + 1]])
     else:
         ok = _insert_and_split(cx, fid, i, e, cand[1], lift, project)
-    return [g for g in cx.faces if g not in before] if ok else []
+    return cx.made_since(since) if ok else []
 
 
 def _neighbours(cx: _Complex, v: int) -> set:
@@ -895,26 +1009,28 @@ def _ray_exit(P, i, d):
     """Where the ray from corner ``i`` of polygon ``P`` along unit ``d`` first meets an edge not at ``i``:
     ``(edge index e, parameter u along P[e] → P[e+1], point)`` or ``None``."""
     k = len(P)
-    o = P[i]
+    L = P.tolist()  # plain floats (the same arithmetic as on the arrays)
+    ox, oy = L[i]
+    dx, dy = float(d[0]), float(d[1])
     best = None
     for e in range(k):
         f = (e + 1) % k
         if e == i or f == i:
             continue
-        C, D = P[e], P[f]
-        w = D - C
-        den = _cross2(d, w)
-        if abs(den) <= 1e-12 * float(np.hypot(*w)):
+        (cx, cy), (ex, ey) = L[e], L[f]
+        wx, wy = ex - cx, ey - cy
+        den = dx * wy - dy * wx
+        if abs(den) <= 1e-12 * float(np.hypot(wx, wy)):
             continue
-        r = C - o
-        t = _cross2(r, w) / den
-        u = _cross2(r, d) / den
+        rx, ry = cx - ox, cy - oy
+        t = (rx * wy - ry * wx) / den
+        u = (rx * dy - ry * dx) / den
         if t > 0.0 and -1e-9 <= u <= 1.0 + 1e-9 and (best is None or t < best[0]):
-            best = (t, e, float(np.clip(u, 0.0, 1.0)))
+            best = (t, e, min(max(u, 0.0), 1.0))
     if best is None:
         return None
     t, e, u = best
-    return e, u, o + t * d
+    return e, u, P[i] + t * d
 
 
 def _landings(P, Q, i, e, u, q):
@@ -970,11 +1086,12 @@ def _collapse_sharp_and_small(cx, lift, project, min_angle, min_area_ratio, max_
                               counts) -> bool:
     """Collapse the edge opposite a sharp corner of a triangle and the shortest edge of a tiny cell; merge a larger
     cell with a sharp corner with its neighbour across one of that corner's edges and split the union again."""
-    areas = {fid: _area3(np.array([cx.X[v] for v in f])) for fid, f in cx.faces.items()}
+    areas = cx.areas()
     if not areas:
         return False
     med = float(np.median(list(areas.values())))
     todo, merges = [], []
+    cx.prime_angles()
     for fid, f in cx.faces.items():
         ang = cx.angles(f)
         if len(f) == 3 and ang.min() < min_angle:
@@ -1023,13 +1140,13 @@ def _remerged(cx: _Complex, fid: int, e: int, min_angle: float, max_face_size: i
         return False
     i, j = f.index(w), h.index(v)
     merged = f[i:] + f[:i] + (h[j:] + h[:j])[1:-1]
-    before = set(cx.faces)
+    since = cx.mark()
     if not cx.edit([fid, g], [merged]):
         return False
     E = cx.edges()
     scale = float(np.median(np.linalg.norm(np.array(cx.uv)[E[:, 0]] - np.array(cx.uv)[E[:, 1]], axis=1)))
     _split_face(cx, cx.next_id - 1, min_angle, max_face_size, scale, max_criterion)
-    pieces = [q for q in cx.faces if q not in before]
+    pieces = cx.made_since(since)
     ok = all(len(cx.faces[q]) <= max_face_size and min_angle <= cx.angles(cx.faces[q]).min() and
              cx.angles(cx.faces[q]).max() <= 180.0 - min_angle for q in pieces)
     if not ok:
@@ -1064,8 +1181,8 @@ def _merged_across(cx: _Complex, fid: int, e: int, min_angle: float, max_face_si
 # vertex stars the conical optimization can satisfy
 
 
-def _ring(cx: _Complex, v: int):
-    """Faces around an interior node ``v`` in cyclic order with the 3D corner angle at ``v`` in each (``None`` for
+def _ring_faces(cx: _Complex, v: int):
+    """Faces around an interior node ``v`` in cyclic order as ``(face id, previous node, next node)`` (``None`` for
     a boundary node)."""
     fids = cx.vf[v]
     if not fids:
@@ -1076,8 +1193,7 @@ def _ring(cx: _Complex, v: int):
         f = cx.faces[fid]
         i = f.index(v)
         p, n = f[i - 1], f[(i + 1) % len(f)]
-        a, b = cx.X[p] - cx.X[v], cx.X[n] - cx.X[v]
-        ring.append((fid, _angle(a, b)))
+        ring.append((fid, p, n))
         fid = cx.he.get((v, p))
         if fid is None:
             return None
@@ -1086,10 +1202,25 @@ def _ring(cx: _Complex, v: int):
     return None
 
 
+def _ring(cx: _Complex, v: int):
+    """Faces around an interior node ``v`` in cyclic order with the 3D corner angle at ``v`` in each (``None`` for
+    a boundary node)."""
+    ring = _ring_faces(cx, v)
+    if ring is None:
+        return None
+    X = cx.X
+    x0, x1, x2 = X[v].tolist()  # plain floats (the same differences as of the arrays)
+    out = []
+    for fid, p, n in ring:
+        a, b = X[p].tolist(), X[n].tolist()
+        out.append((fid, _angle((a[0] - x0, a[1] - x1, a[2] - x2), (b[0] - x0, b[1] - x1, b[2] - x2))))
+    return out
+
+
 def _irregular_after(cx: _Complex, v: int) -> int:
     """1 when one more edge at node ``v`` gives it five faces inside or four on the boundary, else 0."""
     n = len(cx.vf[v]) + 1
-    return int(n >= 5 or (n >= 4 and _ring(cx, v) is None))
+    return int(n >= 5 or (n >= 4 and _ring_faces(cx, v) is None))
 
 
 def _star_cost(cx: _Complex, fid: int, i: int, a1: float, a2: float, max_criterion: float) -> int:
@@ -1145,7 +1276,7 @@ def _conical_stars(cx: _Complex, b: _Bounds, lift, counts) -> None:
     if not len(E):
         return
     med_edge = float(np.median(_edge_lengths(cx, E)))
-    med_area = float(np.median([_area3(np.array([cx.X[v] for v in f])) for f in cx.faces.values()]))
+    med_area = float(np.median(list(cx.areas().values())))
     for _ in range(4):
         bad = sorted(((_criterion(cx, v), v) for v in list(cx.vf) if len(cx.vf[v]) == 4), reverse=True)
         bad = [v for c, v in bad if c > b.max_criterion]

@@ -16,7 +16,8 @@ from components.core.mesh import quad_grid, read_mesh, triangulate
 from components.core.proximity import TriangleIndex
 from components.fields.frames import dual_graph, face_frames, to_complex
 from components.metrics.health import DEFECT_BITS, face_health
-from components.network.healing import _angles3, healed_cells
+from components.network.healing import (_angles3, _angles3_many, _area3, _areas3_many, _split_angles3, _split_pair,
+                                        healed_cells)
 from components.network.pipeline import HEALTH, pq_from_curvature_network
 from components.network.rebuild import _Boundary, _boundary_corners
 from components.network.tracing import curvature_network, filled_directions, principal_field, principal_network
@@ -140,6 +141,23 @@ def test_a_corner_reflex_in_3d_is_reflex():
     Q = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.2, 0.2, 0.05], [0.0, 1.0, 0.0]])
     ang = _angles3(P, Q)
     assert ang[2] > 180.0 and np.all(ang[[0, 1, 3]] < 180.0)
+
+
+def test_batched_cell_measures_are_the_per_cell_numbers():
+    """The vectorized angles and areas (all cells of a size at once) and the plain-float split angles give exactly
+    the numbers of the per-cell functions, also far from the origin: the healing's choices do not change."""
+    rng = np.random.default_rng(7)
+    for k in (3, 4, 5, 7):
+        for shift in (0.0, 5e6):
+            P = rng.standard_normal((40, k, 2))
+            Q = rng.standard_normal((40, k, 3)) + shift
+            A, S = _angles3_many(P, Q), _areas3_many(Q)
+            for c in range(40):
+                assert np.array_equal(A[c], _angles3(P[c], Q[c]))
+                assert S[c] == _area3(Q[c])
+                i, j = rng.choice(k, 2, replace=False).tolist()
+                assert list(_split_pair(P[c].tolist(), Q[c].tolist(), i, j)) == \
+                    _split_angles3(P[c], Q[c], i, P[c][j], Q[c][j]).tolist()
 
 
 def _sphere_lift(R):

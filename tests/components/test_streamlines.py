@@ -9,6 +9,7 @@ from components.core.errors import InputError, MeshError
 from components.core.mesh import read_mesh, triangulate
 from components.core.proximity import closest_points
 from components.surfaces.samples import sample_mesh
+from components.fields import streamlines as streamlines_module
 from components.fields.streamlines import evenly_spaced_streamlines, streamlines, trace_streamlines
 from tests.components.test_fields import _annulus, _grid_triangles, _torus
 from tests.conftest import data_file
@@ -121,6 +122,26 @@ def test_loops_close_on_a_torus():
         # a parallel or a meridian: constant distance to the axis or to the core circle
         core = np.hypot(r - 3.0, L[:, 2])
         assert np.ptp(r) < 0.05 or np.ptp(core) < 0.05
+
+
+def test_skipping_the_self_test_where_it_cannot_fire_changes_no_line(monkeypatch):
+    """A trace skips its self-distance test while its segments stay in a cone around the start tangent (no point
+    can be that close to one more than a lag back), and the queued seeds are tested against the newest line only:
+    the same lines as with every test run in full, on a surface whose principal lines curve and end on each
+    other."""
+    V, T, _ = sample_mesh("canopy", 30)
+    cv = field_curvature(V, T)
+    kw = dict(separation=1.5, labelled=True, extend_ratio=0.25)
+    fast = [evenly_spaced_streamlines(V, T, cv.d1, cv.d2, family=f, **kw) for f in (0, 1)]
+    monkeypatch.setattr(streamlines_module._Tested, "_far", lambda self, idx: False)
+    full_hits = streamlines_module._Points.hits
+    monkeypatch.setattr(streamlines_module._Points, "hits",
+                        lambda self, *a, first_block=0, **k: full_hits(self, *a, **k))
+    streamlines_module._PREPARED.clear()
+    slow = [evenly_spaced_streamlines(V, T, cv.d1, cv.d2, family=f, **kw) for f in (0, 1)]
+    assert sum(len(a) for a in fast) > 10
+    for a, b in zip(fast, slow):
+        assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
 def test_lines_stop_near_singularities():
