@@ -10,10 +10,17 @@ Run from the project root::
 
     /work/venv/bin/python benchmarks/convergence.py                     # seeds 0-3 × 8k, 20k × ×1, ×1000, +5e6
     /work/venv/bin/python benchmarks/convergence.py --seeds 0 1 --sizes 8000 --placements x1
+    /work/venv/bin/python benchmarks/convergence.py --saved /tmp/in/sweep/*.npz    # the planarizer alone
 
 Each case runs ``pq_from_conjugate_field`` on benchmarks/fields.py's patch (jittered by ``seed``) at panels of
 2.5 mean edges, in a fresh child process. Prints one row per case (faces, candidate and final max planarity,
 converged = max planarity ≤ tolerance and healthy, the stop reason, seconds) and the converged share.
+
+``--saved PATH...`` runs the planarizer alone, as the pipeline calls it (``_planarized`` of
+components/fields/pipeline.py: tolerance 1e-4, sliding boundary, closeness weight 10), on saved candidates: ``.npz``
+files with the surface ``V``, ``T`` and the repaired candidate ``CV``, ``CF`` (any placement). One row per file:
+faces, candidate and final max planarity, converged (the planarizer's verdict: tolerance and health), healthy, the
+stop reason, iterations, sparse factorizations, CPU seconds, worst corner, mean closeness / mean candidate edge.
 """
 from __future__ import annotations
 
@@ -52,13 +59,64 @@ def run(size: int, seed: int, placement: str, budget: float):
                       failed=(0, float("nan"), float("nan"), False, "crashed", float("nan")))
 
 
+def _saved(path: str, budget: float):
+    """The planarizer alone on one saved candidate (in a child process): the row's numbers."""
+    import numpy as np
+
+    from components.core.blas import single_blas_thread
+    from components.core.measures import quad_planarity
+    from components.core.mesh import edge_topology
+    from components.planarize import step
+    from components.planarize.planarizer import planarize_mesh
+
+    count = [0]
+    factor = step.factor_spd
+
+    def counted(S):
+        count[0] += 1
+        return factor(S)
+
+    step.factor_spd = counted  # counting only: the solver calls the module's function
+    d = np.load(path)
+    CV, CF = d["CV"], d["CF"]
+    edges = edge_topology(CF).E
+    mel = float(np.linalg.norm(CV[edges[:, 1]] - CV[edges[:, 0]], axis=1).mean())
+    c = time.process_time()
+    with single_blas_thread():  # as the pipeline runs it
+        r = planarize_mesh(CV, CF, reference=(d["V"], d["T"]), tolerance=TOLERANCE, time_budget=budget,
+                           boundary="slide", closeness_weight=10.0, mesh_name="candidate")
+    cpu = time.process_time() - c
+    return (len(CF), float(quad_planarity(CV, CF).max()), r.max_planarity, bool(r.converged), bool(r.healthy),
+            r.stop_reason, r.iterations, count[0], cpu, r.worst_corner_angle, r.mean_closeness / mel)
+
+
+def main_saved(paths, budget: float):
+    """The ``--saved`` table."""
+    print("| file | faces | candidate max | final max | converged | healthy | stop | iterations | factorizations "
+          "| CPU s | worst corner ° | mean closeness / edge |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    done = 0
+    for path in paths:
+        nf, cmax, pmax, conv, healthy, stop, its, facts, cpu, corner, close = run_forked(
+            _saved, path, budget, failed=(0, *[float("nan")] * 2, False, False, "crashed", 0, 0, *[float("nan")] * 3))
+        done += conv
+        print(f"| {Path(path).stem} | {nf} | {cmax:.2e} | {pmax:.2e} | {'yes' if conv else 'no'} | {healthy} | "
+              f"{stop or '-'} | {its} | {facts} | {cpu:.2f} | {corner:.1f} | {close:.4f} |", flush=True)
+    print(f"\nconverged (tolerance and healthy): {done} of {len(paths)} ({100.0 * done / max(len(paths), 1):.0f}%)")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="*", default=[0, 1, 2, 3])
     ap.add_argument("--sizes", type=int, nargs="*", default=[8000, 20000])
     ap.add_argument("--placements", nargs="*", default=list(PLACEMENTS), choices=list(PLACEMENTS))
     ap.add_argument("--budget", type=float, default=30.0, help="the planarization's time budget, s")
+    ap.add_argument("--saved", nargs="+", metavar="PATH",
+                    help="run the planarizer alone on saved candidates (.npz with V, T, CV, CF)")
     args = ap.parse_args(argv)
+    if args.saved:
+        main_saved(args.saved, args.budget)
+        return
     print("| size | seed | placement | faces | candidate max | final max | converged | healthy | stop | s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     done = 0

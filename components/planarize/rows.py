@@ -84,7 +84,9 @@ def soft_terms(prob, X, value_only=False):
     """Value ``f``, gradient ``g (n, 3)`` and a block-diagonal majorizer ``H (n, 3, 3)`` of the soft objective
     (``f`` alone with ``value_only``): ``½ (1 + start_weight) |X − X0|²`` (minimal displacement) ``+ ½ α (n·(X −
     C))²`` (closeness: distance to the tangent plane of the reference at the closest point) ``+ ½ Σ w |r|²``
-    (fairness, even edges / areas).
+    (fairness, even edges / areas) ``+ ½ w_s |(I − t tᵀ)(x − q)|²`` over the boundary vertices by a staircase of the
+    reference (``prob.stair_idx``: distance across the smoothed staircase, ``q`` the closest point on it, ``t`` its
+    tangent; see :func:`components.planarize.problem.setup_problem`).
 
     Returns
     -------
@@ -101,6 +103,13 @@ def soft_terms(prob, X, value_only=False):
             C, Nc = prob.X0[close_idx], prob.N0[close_idx]
         dist = np.einsum("ij,ij->i", X[close_idx] - C, Nc)
         f += 0.5 * alpha * float(np.square(dist).sum())
+    stair = prob.stair_idx
+    if len(stair):  # boundary vertices by a staircase: pulled toward its smoothed curve, free along it
+        q, tang = prob.stair_index.query(X[stair])
+        off = X[stair] - q
+        off -= np.einsum("ij,ij->i", off, tang)[:, None] * tang
+        w_stair = prob.stair_weight
+        f += 0.5 * w_stair * float(np.einsum("ij,ij->", off, off))
     if opts.fairness_weight > 0:  # linear in X: the operator and its majorizer are built once
         rf = prob.fair_op @ X.ravel()
         f += 0.5 * float(np.square(rf).sum())
@@ -122,6 +131,9 @@ def soft_terms(prob, X, value_only=False):
     if alpha > 0 and len(close_idx):
         g[close_idx] += alpha * dist[:, None] * Nc
         H[close_idx] += alpha * Nc[:, :, None] * Nc[:, None, :]
+    if len(stair):
+        g[stair] += w_stair * off
+        H[stair] += w_stair * (np.eye(3)[None] - tang[:, :, None] * tang[:, None, :])
     if opts.fairness_weight > 0:
         g += (prob.fair_op.T @ rf).reshape(-1, 3)
         H[:, [0, 1, 2], [0, 1, 2]] += prob.fair_major
@@ -158,7 +170,7 @@ def inverse_metric(prob, H, tang):
     free_idx, slide_idx = prob.free_idx, prob.slide_idx
     Gb = np.zeros((prob.n, 3, 3))
     if len(free_idx):
-        if prob.alpha > 0:
+        if prob.alpha > 0 or len(prob.stair_idx):
             Gb[free_idx] = _inverse_3x3(H[free_idx])
         else:  # diagonal metric
             Gb[free_idx, [[0], [1], [2]], [[0], [1], [2]]] = 1.0 / H[free_idx][:, [0, 1, 2], [0, 1, 2]].T
@@ -197,17 +209,21 @@ def hard_rows(prob, X, sel, targets):
     A guarded item below its target (``targets``, one per selected item: a corner's sharpness or turn (about the
     face normal at ``X``, held fixed), an edge length, a face area, the normals' dot product across an edge) is
     lifted to it; one above may not fall further (the row
-    is an inequality in effect: rows whose multiplier would hold the value down are released by the caller).
+    is an inequality in effect: rows whose multiplier would hold the value down are released by the caller, unless
+    their item is still under its target).
 
     Returns
     -------
     J : (q, 3 n) CSR, r : (q,), n_hard : int
         The rows, their residuals, and the number of rows before the guard rows.
     """
-    blk = goals.planarity_block(X, prob.Q4, 1.0)
-    blocks = [blk._replace(r=blk.r - _relaxed_target(prob, X, blk.r))]
-    if prob.conical_on:
-        blocks.append(goals.conical_block(X, prob.corners, prob.stars, 1.0))
+    if prob._rows_memo[0] is not X:  # the same at every solve of one iteration (only the guard rows change)
+        blk = goals.planarity_block(X, prob.Q4, 1.0)
+        base = [blk._replace(r=blk.r - _relaxed_target(prob, X, blk.r))]
+        if prob.conical_on:
+            base.append(goals.conical_block(X, prob.corners, prob.stars, 1.0))
+        prob._rows_memo = (X, base)
+    blocks = list(prob._rows_memo[1])
     n_hard = sum(len(b.r) for b in blocks)
     sel = np.asarray(sel, dtype=np.int64)
     targets = np.broadcast_to(np.asarray(targets, dtype=np.float64), sel.shape)

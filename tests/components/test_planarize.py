@@ -195,30 +195,26 @@ def test_closeness_to_reference_is_bounded_on_conjugate_mesh():
     _healthy(res, V, F)
 
 
-def test_sliding_on_the_conjugate_mesh_stays_healthy_and_says_how_far():
+def test_sliding_on_the_conjugate_mesh_converges_along_its_smoothed_staircase_boundary():
     # the remeshed boundary is a staircase: protruding quads lie wholly on it and their lone corners are set free
-    # (with a warning); every other boundary vertex stays on the boundary polyline of the surface. Planarity with
-    # the boundary on that polyline is only reached by collapsing boundary panels (the solver without its health
-    # guard converges with 42 edges under 2e-4 × the median edge and 179° corners): the guard keeps the panels
-    # healthy, and when the tolerance is out of reach the result says how far it is
+    # (with a warning). Sliding on the staircase itself, planarity was only reached by collapsing boundary panels
+    # (the solver without its health guard converged with 42 edges under 2e-4 × the median edge and 179° corners)
+    # and the guard stopped at 1.1e-2; the boundary vertices now move along the staircase smoothed (pulled across
+    # it at the closeness stiffness): the tolerance is met, healthy, with every boundary vertex within a quarter
+    # of an edge of the surface's boundary polyline (the staircase's steps)
     V, F = read_mesh(data_file("inspired_mesh_quads_Conjugate.off"))
     res = on_surface((V, F), (V, F))
-    assert res.healthy, res.violations
+    assert res.converged and res.healthy, res.violations
+    assert res.max_planarity <= 1e-4 and res.violations == []
     h = face_health(res.mesh[0], F)
     assert h.shortest_edge_ratio >= 0.19 and min(h.worst_corner, 180.0 - h.worst_corner) >= 20.0
-    assert res.max_planarity < face_planarity(V, F).max()
-    if res.converged:
-        assert res.max_planarity <= 1e-4 and res.violations == []
-    else:
-        how_far = [w for w in res.warnings if w.startswith("tolerance not reached")]
-        assert how_far and "of 1633 faces above the planarity tolerance 0.0001" in how_far[0]
-        assert res.violations[0].endswith(f"face {int(np.argmax(res.planarity))})")
     _healthy(res, V, F)
     loop = boundary_loops(F)[0]
     faces_per_v = np.bincount(F.ravel(), minlength=len(V))
     on = loop[faces_per_v[loop] > 1]
     q, _ = LoopIndex(V, [loop]).query(res.mesh[0][on])
-    assert np.abs(q - res.mesh[0][on]).max() <= 1e-9
+    mel = edge_lengths(V, edge_topology(F).E).mean()
+    assert np.linalg.norm(q - res.mesh[0][on], axis=1).max() <= 0.25 * mel
     assert any("set free" in w for w in res.warnings)
 
 
