@@ -19,6 +19,23 @@ def peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
 
 
+def counted_factorizations() -> list:
+    """Count the planarizer's sparse factorizations in this (child) process from now on: a one-item list whose
+    item grows with every call of ``components.planarize.step.factor_spd`` (the solver calls the module's
+    function, so wrapping it counts without changing what it does)."""
+    from components.planarize import step
+
+    count = [0]
+    factor = step.factor_spd
+
+    def counted(S):
+        count[0] += 1
+        return factor(S)
+
+    step.factor_spd = counted
+    return count
+
+
 def _child(conn, fn, args):
     conn.send(fn(*args))
     conn.close()

@@ -51,11 +51,13 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))  # forked.py, also when imported as benchmarks.planarize
 
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity as face_planarity  # noqa: E402
 from components.core.mesh import edge_lengths, edge_topology, quad_grid, read_mesh  # noqa: E402
 from components.planarize import planarizer  # noqa: E402
 from components.planarize.planarizer import planarize, planarize_mesh  # noqa: E402
+from forked import counted_factorizations  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data" / "meshes"
 
@@ -172,16 +174,7 @@ def child_100k():
 
 def child_noisy(nq: int, mode: str):
     """One run on the noisy grid in this (child) process: a JSON line with the result's numbers and the peak RSS."""
-    from components.planarize import step
-
-    count = [0]
-    factor = step.factor_spd
-
-    def counted(S):
-        count[0] += 1
-        return factor(S)
-
-    step.factor_spd = counted  # counting only: the solver calls the module's function
+    count = counted_factorizations()  # count[0]: the planarizer's factorizations so far
     V, F = noisy_grid(nq)
     kw = {"reference": (V, F)} if mode == "ref" else {}
     t, c = time.perf_counter(), time.process_time()
@@ -324,16 +317,7 @@ def child_candidate(path: str, variant: str, budget: str = "30"):
     """One planarization of a saved candidate in this (child) process with the pipeline's options (``_planarized``
     of components/fields/pipeline.py): a JSON line. ``variant``: ``plain``, ``x1000`` (every coordinate × 1000) or
     ``moved`` (+5e6 in x and z, −3e6 in y): the results must be the same up to scale."""
-    from components.planarize import step
-
-    count = [0]
-    factor = step.factor_spd
-
-    def counted(S):
-        count[0] += 1
-        return factor(S)
-
-    step.factor_spd = counted
+    count = counted_factorizations()  # count[0]: the planarizer's factorizations so far
     d = np.load(path)
     V, T, CV, CF = d["V"], d["T"], d["CV"], d["CF"]
     s, off = (1000.0, 0.0) if variant == "x1000" else (1.0, np.array([5e6, -3e6, 5e6]) if variant == "moved" else 0.0)
