@@ -29,7 +29,10 @@ grid index, one repaired candidate, batched repair, cached cut graph): 20k 12.5 
 2.3, planarize 5.0; same 1406-face candidate, 9.4e-5, healthy), peak 155 MB; 200k 317 s → 140 s (field 48.1, param
 9.0, extract 51.3 — all six candidates repaired, none healthy —, planarize 29.2, not converged: the candidate's
 smooth non-planarity needs larger moves than the panel-health guard allows), peak 751 MB. Issue #21's targets
-(3 s, 15 s) are not met yet.
+(3 s, 15 s) are not met yet. Session 8 (bit-identical field local step, sliver collapse in the repair, planarizer
+fixes): 20k 5.7 s (field 1.9, param 0.3, extract 1.1, planarize 2.1; same 1406-face candidate, 9.0e-5, healthy),
+peak 150 MB; 200k 91.6 s wall / 62 CPU s on a loaded machine (field 29.1, param 11.1, extract 17.5 — the first
+candidate is healthy now —, planarize 31.9: healthy but not converged, 5.7e-3 at the 30 s budget), peak 750 MB.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
