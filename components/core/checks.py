@@ -13,6 +13,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from components.core.errors import InputError, MeshError
+from components.core.memo import ContentCache, digest
 from components.core.mesh import bounding_box_diagonal, edge_topology, face_normals, face_sizes, halfedges
 
 __all__ = ["check_int", "check_number", "check_choice", "check_points", "check_mesh", "validate_mesh",
@@ -20,6 +21,12 @@ __all__ = ["check_int", "check_number", "check_choice", "check_points", "check_m
 
 #: the values of ``validate_mesh(kind=...)``
 MESH_KINDS = ("any", "tri", "quad", "quad_dominant")
+
+#: the costly checks of :func:`validate_mesh` a mesh passed (repeated corners, zero areas, manifold and oriented
+#: edges), keyed by a digest of the arrays each check reads: one strategy validates the same 20k-triangle surface
+#: several times (~20 ms each). Only passes are kept (a ``True`` per check), never the arrays, so nothing a caller
+#: gets back is shared; a failing check runs again and words its error for the name it is given.
+_PASSED = ContentCache("mesh checks passed", entries=16)
 
 
 def check_int(value, name: str, lo: int | None = None, hi: int | None = None) -> int:
@@ -241,6 +248,12 @@ def validate_mesh(
         Naming the input and the first offending vertex, face or edge.
     ValueError
         ``kind`` is not one of :data:`MESH_KINDS` (a programming error, not an input error).
+
+    Notes
+    -----
+    The costly checks a mesh passed (repeated corners, zero areas, manifold and oriented edges) are remembered by the
+    content of the arrays they read (:data:`_PASSED`), so validating the same surface again, or the same faces on
+    moved vertices, repeats only what can differ. The returned arrays are never shared through it.
     """
     if kind not in MESH_KINDS:
         raise ValueError(f"validate_mesh: kind must be one of {', '.join(MESH_KINDS)}, got {kind!r}")
@@ -280,37 +293,57 @@ def validate_mesh(
         raise MeshError(name, f"a quad mesh is required but face {i} has {sizes[i]} corners")
     if kind == "quad_dominant" and not np.any(sizes == 4):
         raise MeshError(name, "a quad or quad-dominant mesh is required but it has no quads")
+    if allow_degenerate and not manifold:
+        return V, F
+    # each costly check runs once per content (a check that raises keeps nothing); skipping one that passed before
+    # cannot change which error is raised first
+    key_f = digest(F)
     if not allow_degenerate:
         if np.any(sizes < 3):
             i = int(np.argmax(sizes < 3))
             raise MeshError(name, f"face {i} is degenerate (fewer than 3 distinct corners): {F[i].tolist()}")
-        k = F.shape[1]
-        valid = np.arange(k)[None, :] < sizes[:, None]
-        Fs = np.sort(np.where(valid, F, -1 - np.arange(k)[None, :]), axis=1)
-        rep = (Fs[:, 1:] == Fs[:, :-1]).any(axis=1)
-        if rep.any():
-            i = int(np.argmax(rep))
-            raise MeshError(name, f"face {i} repeats a vertex: {F[i].tolist()}")
-        # centred first: at site coordinates (+5e6) the corner cross products would lose the area to round-off
-        area = np.linalg.norm(face_normals(V - V.mean(axis=0), F, unit=False), axis=1)
-        scale = bounding_box_diagonal(V)
-        tiny = area <= (1e-14 * scale * scale if scale > 0 else 0.0)
-        if tiny.any():
-            i = int(np.argmax(tiny))
-            raise MeshError(name, f"face {i} is degenerate (zero area): {F[i].tolist()}")
+        _PASSED.get((key_f, "distinct corners"), lambda: _distinct_corners(F, sizes, name))
+        _PASSED.get((key_f, digest(V), "areas"), lambda: _nonzero_areas(V, F, name))
     if manifold:
-        H, _ = halfedges(F)
-        topo = edge_topology(F)
-        if np.any(topo.count > 2):
-            e = int(np.argmax(topo.count > 2))
-            a, b = topo.E[e].tolist()
-            raise MeshError(name, f"edge ({a}, {b}) is non-manifold: it has {int(topo.count[e])} faces")
-        # consistent orientation: each directed half-edge appears once (one int64 key per half-edge)
-        dkey = np.sort(H[:, 0] * np.int64(len(V)) + H[:, 1])
-        twice = np.nonzero(dkey[1:] == dkey[:-1])[0]
-        if len(twice):
-            a, b = divmod(int(dkey[twice[0]]), len(V))
-            raise MeshError(
-                name, f"faces are not consistently oriented: edge ({a}, {b}) is used twice in the same direction"
-            )
+        _PASSED.get((key_f, len(V), "manifold"), lambda: _manifold_oriented(F, len(V), name))
     return V, F
+
+
+def _distinct_corners(F, sizes, name: str) -> bool:
+    k = F.shape[1]
+    valid = np.arange(k)[None, :] < sizes[:, None]
+    Fs = np.sort(np.where(valid, F, -1 - np.arange(k)[None, :]), axis=1)
+    rep = (Fs[:, 1:] == Fs[:, :-1]).any(axis=1)
+    if rep.any():
+        i = int(np.argmax(rep))
+        raise MeshError(name, f"face {i} repeats a vertex: {F[i].tolist()}")
+    return True
+
+
+def _nonzero_areas(V, F, name: str) -> bool:
+    # centred first: at site coordinates (+5e6) the corner cross products would lose the area to round-off
+    area = np.linalg.norm(face_normals(V - V.mean(axis=0), F, unit=False), axis=1)
+    scale = bounding_box_diagonal(V)
+    tiny = area <= (1e-14 * scale * scale if scale > 0 else 0.0)
+    if tiny.any():
+        i = int(np.argmax(tiny))
+        raise MeshError(name, f"face {i} is degenerate (zero area): {F[i].tolist()}")
+    return True
+
+
+def _manifold_oriented(F, n: int, name: str) -> bool:
+    H, _ = halfedges(F)
+    topo = edge_topology(F)
+    if np.any(topo.count > 2):
+        e = int(np.argmax(topo.count > 2))
+        a, b = topo.E[e].tolist()
+        raise MeshError(name, f"edge ({a}, {b}) is non-manifold: it has {int(topo.count[e])} faces")
+    # consistent orientation: each directed half-edge appears once (one int64 key per half-edge)
+    dkey = np.sort(H[:, 0] * np.int64(n) + H[:, 1])
+    twice = np.nonzero(dkey[1:] == dkey[:-1])[0]
+    if len(twice):
+        a, b = divmod(int(dkey[twice[0]]), n)
+        raise MeshError(
+            name, f"faces are not consistently oriented: edge ({a}, {b}) is used twice in the same direction"
+        )
+    return True

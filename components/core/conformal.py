@@ -25,6 +25,7 @@ import scipy.sparse.linalg as spla
 from components.core.checks import check_choice, check_mesh, validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.measures import triangle_angles
+from components.core.memo import ContentCache, digest
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.types import Mesh, Points
 
@@ -33,6 +34,7 @@ log = logging.getLogger(__name__)
 __all__ = [
     "ConformalDistortion",
     "ConformalMapResult",
+    "cached_boundary_loops",
     "conformal_distortion",
     "conformal_map",
     "cotan_laplacian",
@@ -43,6 +45,26 @@ __all__ = [
 
 # ----------------------------------------------------------------------------------------------
 # building blocks
+
+
+_LOOPS = ContentCache("boundary loops", entries=2)  # the last surfaces' loops (cached_boundary_loops)
+
+
+def cached_boundary_loops(T: np.ndarray, name: str = "mesh") -> list[np.ndarray]:
+    """:func:`components.core.mesh.boundary_loops` of ``T``, found once per content (by a digest of the array): the
+    network strategy asks for the design surface's loops when it traces, plane-maps (twice) and rebuilds (~6 ms
+    each at 20k triangles). Fresh copies are returned, so a caller may change them; an error is raised again for
+    every call, naming ``name``.
+
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> T = triangulate(quad_grid(3, 3)[1])[0]
+    >>> [loop.tolist() for loop in cached_boundary_loops(T)] == [loop.tolist() for loop in boundary_loops(T)]
+    True
+    >>> cached_boundary_loops(T)[0] is cached_boundary_loops(T.copy())[0]
+    False
+    """
+    loops = _LOOPS.get(digest(T), lambda: boundary_loops(T, name))
+    return [loop.copy() for loop in loops]
 
 
 def _cotangents(V: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -260,7 +282,7 @@ def lscm(V: np.ndarray, T: np.ndarray, pinned=None, pinned_uv=None, method: str 
     V, T = _triangle_mesh(V, T, "mesh")
     n = len(V)
     check_choice(method, "method", ("pinned", "spectral"))
-    loops = boundary_loops(T)
+    loops = cached_boundary_loops(T)
     if not loops:
         raise MeshError("mesh", "the surface is closed (no boundary): cut it open before a conformal map")
     used = _used_vertices(T, n)
@@ -471,7 +493,7 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
     check_choice(shape, "shape", ("disk", "square"))
     check_choice(weights, "weights", ("auto", "cotan", "mean_value"))
     n = len(V)
-    loops = boundary_loops(T)
+    loops = cached_boundary_loops(T)
     check_disk(V, T, loops)
     loop = loops[0]
     P, corners = _boundary_positions(V, T, loop, shape)
@@ -702,7 +724,7 @@ def conformal_map(mesh: Mesh, method: str = "lscm") -> ConformalMapResult:
     used = _used_vertices(T, len(V))
     if not used.all():
         warnings.append(f"{int((~used).sum())} vertices are not used by any face; they are placed at (0, 0)")
-    loops = boundary_loops(T)
+    loops = cached_boundary_loops(T)
     if not loops:
         raise MeshError("mesh", "the surface is closed (no boundary): cut it open before a conformal map")
     if method in ("lscm", "spectral"):

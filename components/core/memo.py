@@ -5,8 +5,11 @@ One strategy asks for the same thing again and again (every extraction and repai
 the two streamline families share one tracer; the two boundary modes of the candidate share one cut graph). A
 :class:`ContentCache` keeps the last few values keyed by a :func:`digest` of their inputs' *contents* (dtype, shape
 and bytes), so a copy of the same arrays hits and a changed array misses; it is thread-safe, bounded in entries
-and, optionally, in a weight (e.g. triangles held). Every cache registers itself: :func:`clear_all` forgets them
-all, and the server's solver processes call it after each solve, so what a solve leaves behind never outlives it.
+and, optionally, in a weight (e.g. triangles held). A value pushed out by newer ones but still held elsewhere (a
+design surface's index kept by the object that queries it while other meshes are indexed) is found again through
+a weak reference instead of being rebuilt: it costs no memory the cache would hold. Every cache registers itself:
+:func:`clear_all` forgets them all, and the server's solver processes call it after each solve, so what a solve
+leaves behind never outlives it.
 
 Example
 -------
@@ -49,7 +52,11 @@ def digest(*parts: Any) -> bytes:
 
 class ContentCache:
     """The last ``entries`` values (most recently used kept), at most ``limit`` of their summed ``weight(value)``
-    (the newest is always kept). Values are shared: treat them as read-only."""
+    (the newest is always kept). Values are shared: treat them as read-only.
+
+    A value evicted while something else still references it is kept by a weak reference (values that allow one:
+    objects, arrays; not tuples or numbers) and returned again for its key, so what is alive anyway is not built
+    twice; it then counts as recently used again."""
 
     def __init__(self, name: str, entries: int = 1, limit: float | None = None,
                  weight: Callable[[Any], float] | None = None):
@@ -58,22 +65,36 @@ class ContentCache:
         self.limit = limit
         self.weight = weight
         self._items: OrderedDict = OrderedDict()
+        self._evicted: weakref.WeakValueDictionary = weakref.WeakValueDictionary()  # evicted, alive elsewhere
         self._lock = threading.Lock()
         _ALL.add(self)
 
     def get(self, key: Hashable, build: Callable[[], Any]) -> Any:
-        """The value kept under ``key``, else ``build()`` (outside the lock), kept and returned."""
+        """The value kept under ``key`` (or evicted but still alive elsewhere), else ``build()`` (outside the lock),
+        kept and returned."""
         with self._lock:
             if key in self._items:
                 self._items.move_to_end(key)
                 return self._items[key]
+            value = self._evicted.pop(key, None)
+            if value is not None:
+                self._keep(key, value)
+                return value
         value = build()
         with self._lock:
-            self._items[key] = value
-            self._items.move_to_end(key)
-            while len(self._items) > 1 and (len(self._items) > self.entries or self._over_limit()):
-                self._items.popitem(last=False)
+            self._keep(key, value)
         return value
+
+    def _keep(self, key: Hashable, value: Any) -> None:
+        """Store ``value`` as the newest entry and evict the oldest beyond the bounds (lock held)."""
+        self._items[key] = value
+        self._items.move_to_end(key)
+        while len(self._items) > 1 and (len(self._items) > self.entries or self._over_limit()):
+            old_key, old = self._items.popitem(last=False)
+            try:
+                self._evicted[old_key] = old
+            except TypeError:  # no weak reference to it (a tuple, a number): simply forgotten
+                pass
 
     def _over_limit(self) -> bool:
         if self.limit is None or self.weight is None:
@@ -83,6 +104,7 @@ class ContentCache:
     def clear(self) -> None:
         with self._lock:
             self._items.clear()
+            self._evicted.clear()
 
     def __len__(self) -> int:
         return len(self._items)

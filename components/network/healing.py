@@ -498,6 +498,8 @@ def _split_choice(P, Q, min_angle: float, max_face_size: int, diag_scale: float,
             left = nbad - bad[i] - bad[j] + sum(a < min_angle or a > hi for a in new)
             sizes = (j - i + 1, k - (j - i) + 1)
             big = sum(s > max_face_size for s in sizes)
+            if best_key is not None and (-left, -big) < best_key[:2]:
+                continue  # ranked below the best whatever its stars (the costly part) say
             quality = min(min(a, 180.0 - a) for a in new)
             quads = sum(s == 4 for s in sizes)
             tris = sum(s == 3 for s in sizes)
@@ -665,14 +667,24 @@ def _bulges(cx: _Complex, lift: Callable) -> dict:
     fids = list(cx.faces)
     if not fids:
         return {}
-    P = [cx.polygon(cx.faces[g]) for g in fids]
+    UV, X = np.array(cx.uv).reshape(-1, 2), np.array(cx.X).reshape(-1, 3)
+    faces = [cx.faces[g] for g in fids]
+    P = [UV[f] for f in faces]
     samples = [np.vstack([p.mean(axis=0)[None], 0.5 * (p + p[_roll(len(p))[0]])]) for p in P]
     S = lift(np.concatenate(samples))
+    # the corners' planes, the cells of one size at once (one stacked SVD: the same numbers as one cell at a time)
+    normal, centre = [None] * len(fids), [None] * len(fids)
+    by_size: dict[int, list] = defaultdict(list)
+    for i, f in enumerate(faces):
+        by_size[len(f)].append(i)
+    for k, rows in by_size.items():
+        Q = X[np.array([faces[i] for i in rows])]  # (r, k, 3)
+        C = Q.mean(axis=1)
+        N = np.linalg.svd(Q - C[:, None])[2][:, -1]
+        for i, c, n in zip(rows, C, N):
+            centre[i], normal[i] = c, n
     out, start = {}, 0
-    for g, p, smp in zip(fids, P, samples):
-        Q = cx.points(cx.faces[g])
-        c = Q.mean(axis=0)
-        n = np.linalg.svd(Q - c)[2][-1]
+    for g, smp, c, n in zip(fids, samples, centre, normal):
         out[g] = float(np.abs((S[start:start + len(smp)] - c) @ n).max())
         start += len(smp)
     return out

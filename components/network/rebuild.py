@@ -51,9 +51,9 @@ from scipy.spatial import cKDTree
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_number
 from components.core.memo import ContentCache, digest
-from components.core.conformal import check_disk, disk_map, lscm
+from components.core.conformal import cached_boundary_loops, check_disk, disk_map, lscm
 from components.core.errors import MeshError
-from components.core.mesh import boundary_loops, edge_topology, face_sizes, pad_faces
+from components.core.mesh import edge_topology, face_sizes, pad_faces
 from components.core.types import Curves, Mesh, Numbers
 from components.network.healing import NODE_BOUNDARY, NODE_CORNER, NODE_CROSSING, healed_cells, manifold_cells
 from components.network.tracing import network_for_mesh, principal_angle_error, surface_index
@@ -122,7 +122,7 @@ _PLANE = ContentCache("plane maps")  # the last plane map computed (plane_map)
 
 def _plane_map(V, T, method):
     warnings: list[str] = []
-    check_disk(V, T, boundary_loops(T))
+    check_disk(V, T, cached_boundary_loops(T))
     UV = None
     if method == "lscm":
         UV = lscm(V, T)
@@ -769,10 +769,9 @@ def _arrangement_faces(nodes: _Nodes, edges, polys, efam, X, merge_tol, max_face
     return faces, big if fill else [], kind, dropped
 
 
-def _healed(faces, nuv, X, kind, V, T, UV, bnd, warnings, max_bulge):
+def _healed(faces, nuv, X, kind, V, T, loc: _Locator, bnd, warnings, max_bulge):
     """Heal the cells (:func:`components.network.healing.healed_cells`): ``(faces, uv, X, kind)``; appends what
-    was done to ``warnings``."""
-    loc = _Locator(UV, T)
+    was done to ``warnings``. ``loc`` locates plane points in the plane map of ``(V, T)``."""
 
     def lift(P):
         f, B = loc.locate(P)
@@ -875,7 +874,7 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     if UV is None:
         UV, w = plane_map(V, T, plane)
         warnings += w
-    bnd = _Boundary(UV[boundary_loops(T)[0]])
+    bnd = _Boundary(UV[cached_boundary_loops(T)[0]])
     h_uv = h / _plane_scale(V, T, UV)
     eps_b = 1e-6 * h_uv
     fam, extended = [], 0
@@ -888,7 +887,9 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
         raise MeshError("mesh", "the two line families do not cross: no quad can be formed (panel size too large?)")
     nodes = _network_nodes(fam, bnd, crossings, eps_b, corner_angle, h_uv)
     edges, polys, efam = _network_edges(fam, nodes, bnd)
-    X, _ = uv_to_surface(V, T, UV, nodes.uv)
+    loc = _Locator(np.asarray(UV, float), T)  # one point location for the nodes and the healing (uv_to_surface's)
+    f, B = loc.locate(nodes.uv)
+    X = np.einsum("pk,pkj->pj", B, V[T[f]])
     extend = boundary_cells == "extend"
     faces, big, kind, dropped = _arrangement_faces(nodes, edges, polys, efam, X, merge * h, max_face_size, warnings,
                                                    fill=extend)
@@ -896,7 +897,7 @@ def rebuild_from_network(V, T, lines_1, lines_2, panel_size: float, UV=None, gap
     if extend:
         if max_bulge is not None:
             max_bulge = check_number(max_bulge, "max_bulge", 0, above=True)
-        faces, nuv, X, kind = _healed(faces + big, nuv, X, kind, V, T, UV, bnd, warnings, max_bulge)
+        faces, nuv, X, kind = _healed(faces + big, nuv, X, kind, V, T, loc, bnd, warnings, max_bulge)
     elif boundary_cells == "trim":
         faces, ntri, npen = _trim_boundary_cells(faces, kind, _boundary_edges(faces))
         if ntri or npen:

@@ -46,10 +46,11 @@ from scipy.sparse.linalg import spsolve
 
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_int, check_mesh, check_number
+from components.core.conformal import cached_boundary_loops
 from components.core.memo import ContentCache, digest
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
-from components.core.mesh import boundary_loops, edge_topology, triangulate
+from components.core.mesh import edge_topology, triangulate
 from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Integers, Mesh
 from components.fields.frames import dual_graph, face_frames, from_complex, to_complex
@@ -363,7 +364,7 @@ def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: 
     if t >= 1:
         raise InputError("umbilic_threshold", f"must be below 1, got {umbilic_threshold!r}")
     T = triangulate(F)[0] if F.shape[1] != 3 else F
-    if not boundary_loops(T):
+    if not cached_boundary_loops(T):
         raise MeshError("mesh", "the surface is closed (no boundary): the curvature network is rebuilt in a disk "
                                 "parametrization, so cut the surface open first")
     return V, T, principal_network(V, T, panel_size, umbilic_threshold, radius, tracer, umbilic)

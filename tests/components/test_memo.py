@@ -1,10 +1,17 @@
-"""components.core.memo: content-keyed caches shared by the stages, bounded, thread-safe, forgotten on request."""
+"""components.core.memo: content-keyed caches shared by the stages, bounded, thread-safe, forgotten on request; the
+checks and loops kept through them (validate_mesh, cached_boundary_loops)."""
+import gc
 import threading
 
 import numpy as np
+import pytest
 
 from components.core import memo, proximity
+from components.core.checks import validate_mesh
+from components.core.conformal import cached_boundary_loops
+from components.core.errors import MeshError
 from components.core.memo import ContentCache, digest
+from components.core.mesh import boundary_loops, quad_grid, triangulate
 
 
 def test_digest_is_by_content_dtype_and_shape():
@@ -62,3 +69,57 @@ def test_clear_all_forgets_the_stage_caches():
     assert len(proximity._CACHE) == 0
     d = proximity.TriangleIndex(V, T).query(np.array([[0.2, 0.2, 1.0]])).distances
     assert np.allclose(d, 1.0)
+
+
+class _Value:
+    """A weak-referenceable value."""
+
+    def __init__(self, k):
+        self.k = k
+
+
+def test_an_evicted_value_still_held_elsewhere_is_found_again_not_rebuilt():
+    c = ContentCache("test revival", entries=1)
+    built = []
+
+    def build(k):
+        built.append(k)
+        return _Value(k)
+
+    held = c.get("a", lambda: build("a"))
+    c.get("b", lambda: build("b"))  # evicts "a", which `held` keeps alive
+    assert len(c) == 1 and c.get("a", lambda: build("a")) is held and built == ["a", "b"]
+    # "b" was evicted by the revived "a" and nothing holds it any more: built again
+    gc.collect()
+    assert c.get("b", lambda: build("b")).k == "b" and built == ["a", "b", "b"]
+    c.clear()  # forgets the weakly kept ones too
+    assert c.get("a", lambda: build("a")) is not held and built[-1] == "a" and len(c) == 1
+
+
+def test_validate_mesh_keeps_passes_only_and_words_each_failure_for_its_caller():
+    V, Q = quad_grid(6, 6)
+    T = triangulate(Q)[0]
+    V1, T1 = validate_mesh(V, T)
+    V2, T2 = validate_mesh(V.copy(), T.copy())  # the passes are found again: same result, fresh arrays
+    assert np.array_equal(V1, V2) and np.array_equal(T1, T2) and V2 is not V1 and T2 is not T1
+    W = V.copy()
+    W[T[0, 1]] = W[T[0, 0]] + 0.5 * (W[T[0, 2]] - W[T[0, 0]])  # same faces, face 0 collapsed to a segment
+    for name in ("surface", "reference"):  # a failure is never kept: raised again, for the name given
+        with pytest.raises(MeshError, match=rf"^{name}: face 0 is degenerate \(zero area\)"):
+            validate_mesh(W, T, name=name)
+    validate_mesh(W, T, allow_degenerate=True)
+    bad = T.copy()
+    bad[1] = bad[1, ::-1]  # face 1 turned over: an edge used twice in the same direction
+    for name in ("a", "b"):
+        with pytest.raises(MeshError, match=rf"^{name}: faces are not consistently oriented"):
+            validate_mesh(V, bad, name=name)
+    assert validate_mesh(V, bad, manifold=False)[1] is not None
+
+
+def test_cached_boundary_loops_are_fresh_copies_of_the_loops():
+    T = triangulate(quad_grid(5, 4)[1])[0]
+    first = cached_boundary_loops(T)
+    assert [a.tolist() for a in first] == [a.tolist() for a in boundary_loops(T)]
+    first[0][:] = -1  # a caller may change what it got
+    again = cached_boundary_loops(T.copy())
+    assert [a.tolist() for a in again] == [a.tolist() for a in boundary_loops(T)]
