@@ -41,7 +41,7 @@ from components.core.checks import check_mesh, validate_mesh
 from components.core.errors import MeshError
 from components.core.mesh import edge_topology, face_sizes
 
-__all__ = ["WELD_FRACTION", "TOUCH_FRACTION", "Prepared", "prepared_mesh", "centred_reference"]
+__all__ = ["WELD_FRACTION", "TOUCH_FRACTION", "Prepared", "Reference", "prepared_mesh", "centred_reference"]
 
 WELD_FRACTION = 1e-9  # default weld tolerance, × the bounding-box diagonal
 _WELD_CAP = 0.01  # the request's absolute tolerance is used up to this × the median edge
@@ -124,11 +124,27 @@ def prepared_mesh(V, F, name: str = "mesh", absolute_tolerance: float = 0.0) -> 
     return Prepared(X, Fw, offset, rep, tol, warnings)
 
 
-def centred_reference(reference, offset, name: str = "reference") -> tuple[np.ndarray, np.ndarray]:
-    """A reference mesh (a ``(Vr, Fr)`` pair) checked and moved by ``-offset`` (zero-area faces are refused on the
-    centred copy: the area test loses no precision far from the origin)."""
-    Vr, Fr = check_mesh(reference, name, allow_degenerate=True, manifold=False)
-    return validate_mesh(Vr - offset, Fr, name=name, manifold=False)
+class Reference(NamedTuple):
+    """A checked reference mesh, as given and centred (see :func:`centred_reference`)."""
+
+    given: tuple  # (Vr, Fr) as given (float64 / int64): what the result is judged against, in model units
+    centred: tuple  # (Vr - offset, Fr): what the solver sees, centred like the prepared mesh
+
+
+def centred_reference(reference, offset, name: str = "reference") -> Reference:
+    """A reference mesh (a ``(Vr, Fr)`` pair) checked (zero-area faces refused, non-manifold ones allowed) and moved
+    by ``-offset``. The zero-area test centres the vertices itself (no precision is lost far from the origin), so
+    it runs on the arrays as given: a surface its caller checked already (the same content) is not measured again.
+
+    Example
+    -------
+    >>> V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]) + 5e6
+    >>> r = centred_reference((V, [[0, 1, 2]]), np.full(3, 5e6))
+    >>> r.centred[0].tolist(), r.given[0] is r.centred[0]
+    ([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], False)
+    """
+    Vr, Fr = check_mesh(reference, name, manifold=False)
+    return Reference((Vr, Fr), (Vr - offset, Fr))
 
 
 def _median_edge(X, F) -> float:

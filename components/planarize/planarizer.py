@@ -226,17 +226,21 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
     """Run the solver on a mesh (shape-checked), a reference (``(Vr, Fr)`` or ``None``, checked here as
     ``reference_name``) and checked options; ``t0``: the call's start."""
     prep = prepared_mesh(V, F, mesh_name, opts.absolute_tolerance)
-    ref = None if reference is None else centred_reference(reference, prep.offset, reference_name)
+    # the solver sees the reference centred like the mesh; the result is judged against it as given, in model
+    # units: the closest-point index is then the one a caller's own health check of the surface builds (by content)
+    given = ref = None
+    if reference is not None:
+        given, ref = centred_reference(reference, prep.offset, reference_name)
     anchors = opts.anchors if prep.rep is None else np.unique(prep.rep[opts.anchors])
     opts = opts._replace(anchors=anchors, anchor_points=opts.anchor_points - prep.offset)
     if not np.any(face_sizes(prep.F) >= 4):
         return _triangles_only(V, F, prep, ref, opts, t0)
-    prob, guard, run, m, X = _attempt(prep, ref, opts, mesh_name, t0, lift_rows=True)
+    prob, guard, run, m, X = _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows=True)
     if not (run.converged and m.verdict.healthy) and time.perf_counter() - t0 < 0.5 * opts.time_budget:
         # a second attempt releasing every loose guard row: which rule reaches the tolerance flips from candidate
         # to candidate (18 of 18 saved sweep candidates with the first, 14 with the second alone; the 52-panel
         # wave sample at ×0.001 only with the second)
-        second = _attempt(prep, ref, opts, mesh_name, t0, lift_rows=False)
+        second = _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows=False)
         if _better(second, (prob, guard, run, m, X), opts.use_abs):
             prob, guard, run, m, X = second
     pl, d, used, min_angle, n_ncv, con, warp, verdict = m
@@ -265,9 +269,12 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
         violations=verdict.violations, warnings=prep.warnings + prob.warnings + verdict.warnings)
 
 
-def _attempt(prep, ref, opts, mesh_name, t0, lift_rows: bool):
+def _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows: bool):
     """One run of the solver on the prepared mesh: ``(problem, guard, run, measures, X)``, backed off toward the
-    input to the healthy state nearest the result when the result is not healthy (if there is one)."""
+    input to the healthy state nearest the result when the result is not healthy (if there is one).
+
+    ``ref``: the reference centred like ``prep`` (what the solver sees); ``given``: the reference as given (model
+    units: the verdict's, see :func:`_measured`)."""
     prob = setup_problem(prep.V, prep.F, ref, opts, mesh_name)
     prob.lift_rows = lift_rows
     run = iterate(prob, panel_guard(prob), t0)
@@ -275,16 +282,16 @@ def _attempt(prep, ref, opts, mesh_name, t0, lift_rows: bool):
     final = final_state(run)
     X = final.X * prob.scale + prob.center
     X[prob.fixed] = prep.V[prob.fixed]  # exactly unmoved
-    m = _measured(prob, guard, run, X, ref)
+    m = _measured(prob, guard, run, X, ref, given, prep.offset)
     if not m.verdict.healthy:  # back off toward the input, to the healthy state nearest the result (if any)
         X0 = prob.X0 * prob.scale + prob.center
         X0[prob.fixed] = prep.V[prob.fixed]
-        back = healthy_backoff(prob, guard, ref, X0, X)
+        back = healthy_backoff(prob, guard, given, X0, X, prep.offset)
         if back is not None:
             X, t = back
             lost = "; ".join(line for line in m.verdict.violations if "planarity tolerance" not in line)
             run.converged = False
-            m = _measured(prob, guard, run, X, ref)
+            m = _measured(prob, guard, run, X, ref, given, prep.offset)
             run.stop_reason += f"; backed off to the last healthy state ({t:.0%} of the way from the input)"
             m.verdict.warnings.append(
                 f"the most planar state found was not healthy ({lost}); the healthy state {t:.0%} of the way from "
@@ -315,8 +322,9 @@ class _Measures(NamedTuple):
     verdict: object  # components.planarize.verdict.Verdict
 
 
-def _measured(prob, guard, run, X, ref) -> _Measures:
-    """What the result reports about ``X`` (model units, centred like ``ref``)."""
+def _measured(prob, guard, run, X, ref, given, offset) -> _Measures:
+    """What the result reports about ``X`` (model units, centred like ``ref``); its health is judged on
+    ``X + offset`` (the returned positions) against ``given``, the reference as given."""
     Fw = prob.F
     pl = quad_planarity(X, Fw)
     if ref is not None:  # the solver's index of the reference (normalized units): no second build
@@ -330,7 +338,7 @@ def _measured(prob, guard, run, X, ref) -> _Measures:
     stars = prob.stars
     con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
     warp = warping_height(X, Fw)
-    verdict = result_verdict(prob, guard, run, X, ref, pl, warp, con, min_angle, n_ncv)
+    verdict = result_verdict(prob, guard, run, X, given, pl, warp, con, min_angle, n_ncv, offset)
     return _Measures(pl, d, np.unique(Fw), min_angle, n_ncv, con, warp, verdict)
 
 

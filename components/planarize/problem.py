@@ -25,6 +25,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from components.core.checks import check_choice, check_int, check_number, check_points
+from components.core.conformal import cached_boundary_loops
 from components.core.measures import quad_planarity, warping_height
 from components.core.mesh import (Corners, boundary_loops, edge_topology, face_corners, face_normals, face_sizes,
                                   triangulate)
@@ -246,7 +247,7 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
         TR, _ = triangulate(Fr)
         NR = face_normals(XR, TR)
         ref_index = TriangleIndex(XR, TR, name="reference")
-        ref_loops = boundary_loops(Fr, name="reference")
+        ref_loops = cached_boundary_loops(Fr, name="reference")  # a caller's surface: its loops found once
     frames = FaceFrames(F, corners)
     N0 = _vertex_normals(X0, corners, frames.normals(X0, unit=False))
     fixed, slide, ref_loops = _vertex_roles(V, F, X0, ref_loops, opts, scale, corners, mesh_name, warnings)

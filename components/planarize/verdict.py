@@ -53,14 +53,19 @@ def planarity_line(opts, pl, warp) -> str:
             f"(worst {val[i]:.3g} = {val[i] / tol:.3g} × the tolerance, face {i})")
 
 
-def result_verdict(prob, guard, run, X, reference, pl, warp, con, min_angle_out, n_ncv) -> Verdict:
-    """The verdict on the result ``X`` (model units, centred like ``reference``; faces ``prob.F``).
+def result_verdict(prob, guard, run, X, reference, pl, warp, con, min_angle_out, n_ncv, offset=0.0) -> Verdict:
+    """The verdict on the result ``X`` (model units, centred: ``X + offset`` are the returned positions, in the
+    frame of ``reference``, the reference as given; faces ``prob.F``).
 
     ``pl`` / ``warp``: per-face planarity and warping height; ``con``: the largest conical criterion;
-    ``min_angle_out``: the smallest corner angle (radians); ``n_ncv``: non-convex quad-like faces.
+    ``min_angle_out``: the smallest corner angle (radians); ``n_ncv``: non-convex quad-like faces. The health is
+    measured on the returned positions against the reference as given: a caller judging the same result against
+    the same surface then shares its closest-point indexes (built once per content, see
+    :class:`components.core.proximity.TriangleIndex`).
     """
     opts, bounds = prob.opts, guard.bounds
-    h = face_health(X, prob.F, reference, tolerance=_NO_TOLERANCE,  # planarity is the tolerance's (the line below)
+    # planarity is the tolerance's (the line below)
+    h = face_health(X + offset, prob.F, reference, tolerance=_NO_TOLERANCE,
                     min_edge_ratio=bounds.min_edge_ratio, min_angle=bounds.min_angle,
                     min_area_ratio=bounds.min_area_ratio, min_coverage=opts.min_coverage)
     line = planarity_line(opts, pl, warp) if not run.converged else ""
@@ -90,31 +95,32 @@ def result_verdict(prob, guard, run, X, reference, pl, warp, con, min_angle_out,
     return Verdict(bool(h.healthy), violations, coverage, warnings)
 
 
-def _shape_healthy(prob, guard, reference, X) -> bool:
-    """Healthy at the verdict's thresholds, planarity aside."""
+def _shape_healthy(prob, guard, reference, X, offset) -> bool:
+    """Healthy at the verdict's thresholds, planarity aside (measured like :func:`result_verdict`)."""
     b = guard.bounds
-    return bool(face_health(X, prob.F, reference, tolerance=_NO_TOLERANCE, min_edge_ratio=b.min_edge_ratio,
-                            min_angle=b.min_angle, min_area_ratio=b.min_area_ratio,
+    return bool(face_health(X + offset, prob.F, reference, tolerance=_NO_TOLERANCE,
+                            min_edge_ratio=b.min_edge_ratio, min_angle=b.min_angle, min_area_ratio=b.min_area_ratio,
                             min_coverage=prob.opts.min_coverage).healthy)
 
 
-def healthy_backoff(prob, guard, reference, X0, X1):
+def healthy_backoff(prob, guard, reference, X0, X1, offset=0.0):
     """``(X, t)``: the healthy state ``X0 + t (X1 − X0)`` with the smallest max planarity, or ``None`` when the input
-    ``X0`` is not healthy itself (then nothing healthier is on the way).
+    ``X0`` is not healthy itself (then nothing healthier is on the way). ``X0``, ``X1`` and ``X`` are centred:
+    their health is that of ``X + offset`` against ``reference`` (as in :func:`result_verdict`).
 
     The guard keeps every accepted step's panels healthy, but not the coverage of the reference (a global measure:
     a planar net pulled off a doubly curved surface by a relaxed closeness leaves parts of it uncovered) nor, at the
     last bit, every threshold of the verdict. The largest healthy ``t`` is found by bisection
     (:data:`_BACKOFF_STEPS` steps).
     """
-    if not _shape_healthy(prob, guard, reference, X0):
+    if not _shape_healthy(prob, guard, reference, X0, offset):
         return None
     best = (max_quad_planarity(X0, prob.F), 0.0)
     lo, hi = 0.0, 1.0
     for _ in range(_BACKOFF_STEPS):
         t = 0.5 * (lo + hi)
         X = X0 + t * (X1 - X0)
-        if _shape_healthy(prob, guard, reference, X):
+        if _shape_healthy(prob, guard, reference, X, offset):
             lo = t
             best = min(best, (max_quad_planarity(X, prob.F), t))
         else:

@@ -235,6 +235,29 @@ def test_a_far_away_small_reference_is_not_refused():
     assert res.converged and res.coverage > 0.99
 
 
+@pytest.mark.parametrize("shift", [0.0, 5e6])
+def test_the_verdict_judges_the_returned_mesh_against_the_reference_as_given(shift):
+    # the verdict measures the returned positions against the reference as the caller gave it: a caller's own
+    # face_health of the result at the same bounds reads the same coverage, to the last bit, at every placement
+    V, F = height_grid(0.01)
+    ref = (V + shift, triangulate(F)[0])
+    res = planarize_mesh(V + shift, F, ref, min_coverage=0.85)
+    own = face_health(res.mesh[0], F, ref, tolerance=1e300, min_edge_ratio=0.2, min_angle=20.0, min_area_ratio=0.1,
+                      min_coverage=0.85)
+    assert res.converged and res.healthy == own.healthy and res.violations == own.violations
+    assert res.coverage == own.coverage and res.coverage > 0.95
+
+
+def test_a_reference_with_a_zero_area_face_is_refused_naming_it():
+    V, F = height_grid()
+    T = triangulate(F)[0]
+    for shift in (0.0, 5e6):
+        Vr = V + shift
+        Vr[T[5, 2]] = Vr[T[5, 0]]  # two corners of triangle 5 (and of its neighbour 4) coincide: zero area
+        with pytest.raises(MeshError, match=r"reference: face \d+ is degenerate \(zero area\)"):
+            planarize_mesh(V + shift, F, (Vr, T))
+
+
 # ----------------------------------------------------------------------------------------------- input handling
 
 
