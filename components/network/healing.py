@@ -176,20 +176,9 @@ def _angles3(P, Q) -> np.ndarray:
 def _angles3_many(P, Q) -> np.ndarray:
     """:func:`_angles3` of ``n`` cells with ``k`` corners each at once: ``P (n, k, 2)``, ``Q (n, k, 3)`` → ``(n, k)``,
     the same numbers (the same operations in the same order, vectorized over the cells)."""
-    n, k = Q.shape[:2]
+    k = Q.shape[1]
     X, Y, Z = Q[..., 0], Q[..., 1], Q[..., 2]
-    cx, cy, cz = X[:, 0].copy(), Y[:, 0].copy(), Z[:, 0].copy()
-    for i in range(1, k):
-        cx += X[:, i]
-        cy += Y[:, i]
-        cz += Z[:, i]
-    Yx, Yy, Yz = X - (cx / k)[:, None], Y - (cy / k)[:, None], Z - (cz / k)[:, None]
-    nx, ny, nz = np.zeros(n), np.zeros(n), np.zeros(n)
-    for i in range(k):
-        j = (i + 1) % k
-        nx += Yy[:, i] * Yz[:, j] - Yz[:, i] * Yy[:, j]
-        ny += Yz[:, i] * Yx[:, j] - Yx[:, i] * Yz[:, j]
-        nz += Yx[:, i] * Yy[:, j] - Yy[:, i] * Yx[:, j]
+    nx, ny, nz = _newell_many(Q)
     nxt, prv = _roll(k)
     ax, ay, az = X[:, nxt] - X, Y[:, nxt] - Y, Z[:, nxt] - Z
     bx, by, bz = X[:, prv] - X, Y[:, prv] - Y, Z[:, prv] - Z
@@ -251,6 +240,13 @@ def _area3(X) -> float:
 def _areas3_many(Q) -> np.ndarray:
     """:func:`_area3` of ``n`` cells with ``k`` corners each at once: ``Q (n, k, 3)`` → ``(n,)``, the same numbers
     (the same operations in the same order, vectorized over the cells)."""
+    nx, ny, nz = _newell_many(Q)
+    return 0.5 * np.sqrt(nx * nx + ny * ny + nz * nz)
+
+
+def _newell_many(Q):
+    """The Newell normals (twice the vector area) of ``n`` cells with ``k`` corners each, about their centroids:
+    ``Q (n, k, 3)`` → ``nx, ny, nz (n,)``, with the operations of :func:`_area3` in the same order."""
     n, k = Q.shape[:2]
     X, Y, Z = Q[..., 0], Q[..., 1], Q[..., 2]
     cx, cy, cz = X[:, 0].copy(), Y[:, 0].copy(), Z[:, 0].copy()
@@ -265,7 +261,7 @@ def _areas3_many(Q) -> np.ndarray:
         nx += B[:, i] * C[:, j] - C[:, i] * B[:, j]
         ny += C[:, i] * A[:, j] - A[:, i] * C[:, j]
         nz += A[:, i] * B[:, j] - B[:, i] * A[:, j]
-    return 0.5 * np.sqrt(nx * nx + ny * ny + nz * nz)
+    return nx, ny, nz
 
 
 class _Complex:
