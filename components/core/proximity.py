@@ -345,6 +345,20 @@ class _SampleIndex:
 # uniform grid of cells listing the triangles that touch them
 
 
+def _plane_coords(P, D):
+    """What both pair kernels start from: the offsets ``w0, w1, w2`` of the points ``P`` (components first) from
+    the triangles' first corners, their dot products ``d20, d21`` with the edges AB and AC, the unnormalized
+    barycentric ``s, t`` of their projections (over ``den``) and whether the projection is inside the triangle."""
+    ax, ay, az, ux, uy, uz, vx, vy, vz, nx, ny, nz, d00, d01, d11, den, i00, i11, iff = D
+    w0, w1, w2 = P[0] - ax, P[1] - ay, P[2] - az
+    d20 = w0 * ux + w1 * uy + w2 * uz
+    d21 = w0 * vx + w1 * vy + w2 * vz
+    s = d11 * d20 - d01 * d21
+    t = d00 * d21 - d01 * d20
+    inside = (s >= 0.0) & (t >= 0.0) & (s + t <= den)
+    return w0, w1, w2, d20, d21, s, t, inside
+
+
 def _pair_sqdist(P, D):
     """Squared distances of the row-wise pairs point / triangle, components first: ``P`` is ``(x, y, z)`` of the
     points, ``D`` the triangles' columns of :attr:`_TriangleGrid.data` gathered for the pairs.
@@ -355,12 +369,7 @@ def _pair_sqdist(P, D):
     times faster.
     """
     ax, ay, az, ux, uy, uz, vx, vy, vz, nx, ny, nz, d00, d01, d11, den, i00, i11, iff = D
-    w0, w1, w2 = P[0] - ax, P[1] - ay, P[2] - az
-    d20 = w0 * ux + w1 * uy + w2 * uz
-    d21 = w0 * vx + w1 * vy + w2 * vz
-    s = d11 * d20 - d01 * d21
-    t = d00 * d21 - d01 * d20
-    inside = (s >= 0.0) & (t >= 0.0) & (s + t <= den)
+    w0, w1, w2, d20, d21, _, _, inside = _plane_coords(P, D)
     h = w0 * nx + w1 * ny + w2 * nz
     t = np.clip(d20 * i00, 0.0, 1.0)  # edge AB
     r0, r1, r2 = w0 - t * ux, w1 - t * uy, w2 - t * uz
@@ -531,13 +540,9 @@ class _TriangleGrid:
         """Closest points ``(3, q)``, barycentric coordinates ``(q, 3)`` and region codes (as
         :func:`closest_points_on_triangles`: 0 inside, 1/2/3 corner, 4/5/6 edge AB/BC/CA; exact zeros off the
         region) of the row-wise pairs point ``P3 (3, q)`` / triangle ``tri (q,)``."""
-        ax, ay, az, ux, uy, uz, vx, vy, vz, nx, ny, nz, d00, d01, d11, den, i00, i11, iff = [x[tri] for x in self.data]
-        w0, w1, w2 = P3[0] - ax, P3[1] - ay, P3[2] - az
-        d20 = w0 * ux + w1 * uy + w2 * uz
-        d21 = w0 * vx + w1 * vy + w2 * vz
-        s = d11 * d20 - d01 * d21
-        t = d00 * d21 - d01 * d20
-        inside = (s >= 0.0) & (t >= 0.0) & (s + t <= den)
+        D = [x[tri] for x in self.data]
+        ax, ay, az, ux, uy, uz, vx, vy, vz, nx, ny, nz, d00, d01, d11, den, i00, i11, iff = D
+        w0, w1, w2, d20, d21, s, t, inside = _plane_coords(P3, D)
         tab = np.clip(d20 * i00, 0.0, 1.0)
         tca = np.clip(d21 * i11, 0.0, 1.0)
         f0, f1, f2 = vx - ux, vy - uy, vz - uz
