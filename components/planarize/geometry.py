@@ -169,28 +169,41 @@ class LoopIndex:
     """
 
     def __init__(self, X: np.ndarray, loops: list):
-        self._loops = [PolylineIndex(X[lp], closed=True, name="boundary") for lp in loops if len(lp) >= 2]
+        kept = [k for k, lp in enumerate(loops) if len(lp) >= 2]
+        self._numbers = np.array(kept, dtype=np.int64)  # the kept loops' positions in ``loops``
+        self._loops = [PolylineIndex(X[loops[k]], closed=True, name="boundary") for k in kept]
 
     def __bool__(self):
         return bool(self._loops)
 
     def query(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closest points ``(p, 3)`` on the loops and the unit tangents ``(p, 3)`` of the segments holding them."""
+        Q, T, _ = self._nearest(P)
+        return Q, T
+
+    def nearest_loop(self, P: np.ndarray) -> np.ndarray:
+        """``(p,) int``: the position in ``loops`` of the loop nearest to each point (the first of equally near
+        ones; -1 without loops)."""
+        return self._nearest(P)[2]
+
+    def _nearest(self, P):
         P = np.asarray(P, dtype=np.float64)
         best_d = np.full(len(P), np.inf)
         Q = np.zeros_like(P)
         T = np.zeros_like(P)
+        L = np.full(len(P), -1, dtype=np.int64)
         if len(P) == 0:
-            return Q, T
-        for idx in self._loops:
+            return Q, T, L
+        for number, idx in zip(self._numbers, self._loops):
             res = idx.query(P, name="boundary vertices")
             better = res.distances < best_d
             if better.any():
                 best_d[better] = res.distances[better]
                 Q[better] = res.points[better]
+                L[better] = number
                 t = idx.B[res.segments[better]] - idx.A[res.segments[better]]
                 T[better] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-        return Q, T
+        return Q, T, L
 
 
 # ----------------------------------------------------------------------------------------------

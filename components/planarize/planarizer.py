@@ -152,7 +152,7 @@ def planarize_mesh(
         reference; corners, i.e. vertices of one face or sharp turns, stay fixed), or free. A reference loop that
         is a staircase (a hole cut along a triangulation's edges: over a quarter of its vertices turn by more than
         40°) is not slid on: the vertices by it move freely, pulled across the loop smoothed over half an edge at
-        ``20 × closeness_weight`` (sliding on the steps themselves, the guard refused every step).
+        ``20 × max(closeness_weight, 1)`` (sliding on the steps themselves, the guard refused every step).
     anchors : (a,) array_like of int, optional
         Vertex indices that must not move.
     anchor_points : (p, 3) array_like of float, optional

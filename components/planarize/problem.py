@@ -29,7 +29,7 @@ from components.core.conformal import cached_boundary_loops
 from components.core.measures import quad_planarity, warping_height
 from components.core.mesh import (Corners, boundary_loops, edge_topology, face_corners, face_normals, face_sizes,
                                   triangulate)
-from components.core.proximity import PolylineIndex, TriangleIndex
+from components.core.proximity import TriangleIndex
 from components.planarize import goals
 from components.planarize.geometry import CrossingWatch, FaceFrames, LoopIndex, Stars, vertex_stars
 from components.planarize.rows import stack, tolerance_of
@@ -253,7 +253,7 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
     fixed, slide, ref_loops = _vertex_roles(V, F, X0, ref_loops, opts, scale, corners, mesh_name, warnings)
     stair_idx, stair_index = np.zeros(0, np.int64), None
     if reference is not None and slide.any():
-        ref_loops, stair_idx, stair_index = _off_staircases(X0, XR, ref_loops, slide, fixed)
+        ref_loops, stair_idx, stair_index = _off_staircases(X0, XR, ref_loops, slide)
     slide_idx = np.nonzero(slide)[0]
     bnd_index = LoopIndex(XR if reference is not None else X0, ref_loops) if len(slide_idx) else None
     Q4 = _pseudo_quads(F, sizes)
@@ -406,7 +406,7 @@ def smoothed_loops(X, loops) -> np.ndarray:
     return X
 
 
-def _off_staircases(X0, XR, ref_loops, slide, fixed):
+def _off_staircases(X0, XR, ref_loops, slide):
     """``(loops, stair_idx, stair_index)``: the reference loops to slide on, without its staircases
     (:func:`staircase_loops`); the sliding vertices nearest to a staircase (set free here, in place); the smoothed
     staircases (:func:`smoothed_loops`) they are pulled toward.
@@ -423,15 +423,8 @@ def _off_staircases(X0, XR, ref_loops, slide, fixed):
     if not stair.any():
         return ref_loops, np.zeros(0, np.int64), None
     idx = np.nonzero(slide)[0]
-    best = np.full(len(idx), np.inf)
-    on_stair = np.zeros(len(idx), dtype=bool)
-    for k, lp in enumerate(ref_loops):
-        if len(lp) < 2:
-            continue
-        d = PolylineIndex(XR[lp], closed=True, name="boundary").query(X0[idx], name="boundary vertices").distances
-        better = d < best
-        best[better] = d[better]
-        on_stair[better] = stair[k]
+    nearest = LoopIndex(XR, ref_loops).nearest_loop(X0[idx])
+    on_stair = (nearest >= 0) & stair[np.maximum(nearest, 0)]
     slide[idx[on_stair]] = False
     loops = [lp for k, lp in enumerate(ref_loops) if stair[k]]
     return ([lp for k, lp in enumerate(ref_loops) if not stair[k]], idx[on_stair],
