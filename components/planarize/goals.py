@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.mesh import Corners, face_corners
-from components.planarize.geometry import Stars
+from components.planarize.geometry import Stars, einsum_sum3
 
 
 class Block(NamedTuple):
@@ -35,12 +35,20 @@ def _triplets(rows_per, verts, grads):
 
 def planarity_residual(X: np.ndarray, Q4: np.ndarray) -> np.ndarray:
     """Signed scale-free diagonal distance of every (pseudo-)quad: the residual of :func:`planarity_block`."""
-    a, b, c, d = (X[Q4[:, i]] for i in range(4))
-    d1, d2 = c - a, d - b
-    cr = np.cross(d1, d2)
-    md = 0.5 * (np.linalg.norm(d1, axis=1) + np.linalg.norm(d2, axis=1))
-    den = np.linalg.norm(cr, axis=1) * md
-    return np.einsum("ij,ij->i", b - a, cr) / np.where(den > 1e-300, den, 1e-300)
+    Xc = np.ascontiguousarray(X.T)  # component by component (1-D gathers), the same operations as row-wise
+    a, b, c, d = ([x[Q4[:, i]] for x in Xc] for i in range(4))
+    d1 = [ci - ai for ci, ai in zip(c, a)]
+    d2 = [di - bi for di, bi in zip(d, b)]
+    cr = (d1[1] * d2[2] - d1[2] * d2[1], d1[2] * d2[0] - d1[0] * d2[2], d1[0] * d2[1] - d1[1] * d2[0])  # np.cross
+    md = 0.5 * (_length(d1) + _length(d2))
+    den = _length(cr) * md
+    vol = einsum_sum3(*((bi - ai) * ci for ai, bi, ci in zip(a, b, cr)))  # np.einsum("ij,ij->i", b - a, cr)
+    return vol / np.where(den > 1e-300, den, 1e-300)
+
+
+def _length(v):
+    """``np.linalg.norm(v, axis=1)`` of a vector given by its components ``(x, y, z)`` (the same numbers)."""
+    return np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
 def planarity_block(X: np.ndarray, Q4: np.ndarray, weight: float) -> Block:

@@ -61,7 +61,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.planarize.geometry import corner_turns, crossing_pairs
+from components.core.measures import norm
+from components.planarize.geometry import corner_turns, crossing_pairs, einsum_sum3
 from components.planarize.problem import planarity_excess, planarity_score
 
 log = logging.getLogger(__name__)
@@ -303,29 +304,35 @@ def panel_health(prob, guard: PanelGuard, X, crossings: bool = True) -> Health:
     """Corner turns and angles, edge lengths, face areas, the non-convex count, and the guards ``X`` fails (the
     crossing test, the costly one, only when every other guard passes, and only with ``crossings``)."""
     An = prob.frames.normals(X, unit=False)
-    areas = np.linalg.norm(An, axis=1)
+    areas = norm(An)
     N = An / np.where(areas > 0, areas, np.inf)[:, None]
-    turn, ang = corner_turns(X, prob.corners, N)
-    lengths = np.linalg.norm(X[prob.E[:, 1]] - X[prob.E[:, 0]], axis=1)
+    turn, ang = prob.frames.turns(X, N)
+    x, y, z = np.ascontiguousarray(X.T)
+    E0, E1 = prob.E.T
+    dx, dy, dz = x[E1] - x[E0], y[E1] - y[E0], z[E1] - z[E0]
+    lengths = np.sqrt(dx * dx + dy * dy + dz * dz)  # np.linalg.norm's numbers
     g = guard.guarded
     ncv = np.zeros(len(prob.F), dtype=bool)
     ncv[prob.corners.face[(turn <= 0) & g]] = True
     failed = []
     sharp = np.minimum(ang, math.pi - ang)
-    if np.any(sharp[g] < guard.angle_floor[g]):
+    if np.any((sharp < guard.angle_floor) & g):
         failed.append("corner")
-    if ncv.any() or np.any(turn[g] < guard.turn_min[g]):
+    if ncv.any() or np.any((turn < guard.turn_min) & g):
         failed.append("convexity")
     if np.any(lengths < guard.len_min):
         failed.append("edge")
     if np.any(areas < guard.area_min):
         failed.append("area")
-    ff = guard.fold_faces
-    dots = np.einsum("ij,ij->i", N[ff[:, 0]], N[ff[:, 1]])
+    # n1 · n2 across the interior edges, and n · the reference's normal, component by component (1-D gathers) in
+    # the numbers of np.einsum("ij,ij->i", ...) on the rows
+    Nc = [np.ascontiguousarray(N[:, j]) for j in range(3)]
+    f0, f1 = (np.ascontiguousarray(guard.fold_faces[:, i]) for i in range(2))
+    dots = einsum_sum3(*(n[f0] * n[f1] for n in Nc))
     if np.any(dots < -math.cos(guard.open_min)):
         failed.append("fold")
-    if guard.flip_on is not None and np.any(np.einsum("ij,ij->i", N[guard.flip_on],
-                                                      guard.flip_normals[guard.flip_on]) < 0.0):
+    if guard.flip_on is not None and np.any(
+            (einsum_sum3(*(n * guard.flip_normals[:, j] for j, n in enumerate(Nc))) < 0.0) & guard.flip_on):
         failed.append("flip")
     if not failed and crossings and new_crossings(prob, guard, X):
         failed.append("crossing")

@@ -204,6 +204,7 @@ class Problem:
     stair_weight: float = 0.0  # stiffness of that pull (across the curve)
     _query: tuple = (None, None)  # the latest closest-point query (positions, result): trial → accepted → next step
     _rows_memo: tuple = (None, None)  # (positions, planarity and conical row blocks) of the latest hard rows
+    _normals_memo: tuple = (None, None)  # (positions, unit face normals) of the latest turn guard rows
     lift_rows: bool = True  # guard rows still lifting their item to its target are never released (see step.py)
 
     def reference_query(self, X):

@@ -203,3 +203,15 @@ def test_iterate_records_one_history_entry_per_iteration_and_stops_at_the_cap():
     assert run.it == 1 and run.stop_reason == "iteration cap (1) reached"
     assert len(run.hist["maxp"]) == 2 and run.hist["maxp"][1] < run.hist["maxp"][0]
     assert run.best.score < run.start_score
+
+
+def test_einsum_sum3_sums_the_three_products_to_round_off():
+    from components.planarize.geometry import einsum_sum3
+    rng = np.random.default_rng(7)
+    for n in (1, 3, 8, 1000, 20000):
+        a = rng.standard_normal((n, 3)) * rng.lognormal(0.0, 3.0, (n, 3))
+        b = rng.standard_normal((n, 3))
+        exact = np.einsum("ij,ij->i", a, b)
+        got = einsum_sum3(*(a * b).T)
+        scale = np.abs(a * b).sum(axis=1)
+        assert np.all(np.abs(got - exact) <= 4 * np.finfo(float).eps * scale)
