@@ -7,7 +7,8 @@ Run from the project root::
 
 The stage is :func:`components.fields.parametrize.direction_field` with the pipeline's options (the conjugate field,
 alignment 0.1) on the input moved to its bounding-box centre, as ``candidate_mesh`` runs it: the curvature fit, the
-smooth PolyVector field, the conjugate local-global iterations (of which the local step, ``_closest_conjugate``, and
+smooth PolyVector field, the conjugate local-global iterations (both fields without their diagnostics, as
+``direction_field`` asks for them; the singularities and the conjugacy error are computed after the timing) (of which the local step, ``_closest_conjugate``, and
 the sparse factorizations, ``_factor``, are timed separately). Inputs are ``benchmarks/fields.py``'s free-form patch
 with a hole. Each size runs in a fresh forked process (peak memory is that run's); the machine's cores are shared, so
 compare CPU seconds measured in the same run. ``field`` is a fingerprint of the result (a hash of ``U, W``): equal
@@ -22,6 +23,17 @@ trigonometric calls, the known middle sample not re-evaluated, the tangent term 
 the rest: 6 complex factorizations 7.8–8.1, 121 solves ~4.6, smooth field 4.4, curvature 1.1–1.3), peak 735 MB.
 Issue #21's targets for the stage (20k < 0.8 s, 200k < 8 s) need fewer iterations or factorizations, which change
 the field: with 20 iterations instead of 40 the 20k stage halves, but other candidates come out downstream.
+
+Measured 2026-12-02, busy machine, HEAD 9195233 → the local step's best sample without ``np.argmin(axis=0)``'s
+per-column loop (a column minimum and ranked equal rows), the doubled cost (halvings left out, exact), the
+refinement samples written in place, the swap test without the rest of the cost; the release run reuses the first
+run's last local step; both fields without the diagnostics ``direction_field`` discards (the singularities and
+errors, now computed after the timing here) and with one face-frame/dual-graph build; the curvature's edge list by
+a sort instead of ``np.unique``'s hash table. Same field bit for bit (fingerprints 446cdd163086 at 20k,
+50576ca4f2ac at 200k; ``direction_field`` on the saved pipeline inputs, ×1000 and +5e6 too), CPU seconds in one
+run: 20k total 1.70 → 1.46 (local step 0.73 → 0.56), 200k 21.0 → 19.1 (local step 7.10 → 5.61). What is left at
+200k is mostly SuperLU's: 6 factorizations ~5.8 s and 121 solves ~4.3 s (the solves are bound by reading the
+factors; panel size, relaxation or a reused ordering change the factors' bits or save < 0.2 s).
 """
 from __future__ import annotations
 
@@ -38,7 +50,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))  # forked.py, fields.py
 
 import components.fields.field as field_module  # noqa: E402
-from components.fields.field import conjugate_frame_field, field_curvature, smooth_frame_field  # noqa: E402
+from components.fields.field import (conjugacy_error, conjugate_frame_field, field_curvature,  # noqa: E402
+                                     field_singularities, smooth_frame_field)
 from fields import patch  # noqa: E402
 from forked import peak_mb, run_forked  # noqa: E402
 
@@ -72,16 +85,18 @@ def _run(n: int, repeat: int) -> tuple:
         t0 = time.process_time()
         cv = field_curvature(V, T)
         t1 = time.process_time()
-        s = smooth_frame_field(V, T, alignment=0.1, curvature=cv)
+        s = smooth_frame_field(V, T, alignment=0.1, curvature=cv, diagnostics=False)
         t2 = time.process_time()
-        c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv)
+        c = conjugate_frame_field(V, T, s.U, s.W, curvature=cv, diagnostics=False)
         t3 = time.process_time()
         row = (t1 - t0, t2 - t1, t3 - t2, acc.get("_closest_conjugate", 0.0), acc.get("_factor", 0.0), t3 - t0)
         if best is None or row[-1] < best[-1]:
             best = row
     digest = hashlib.sha1(np.ascontiguousarray(c.U).tobytes() + np.ascontiguousarray(c.W).tobytes()).hexdigest()
-    return (len(T),) + best + (peak_mb(), len(c.singularities), int(c.released.sum()),
-                               float(c.conjugacy_error.mean()), digest[:12])
+    # the diagnostics direction_field skips, computed here untimed (as conjugate_frame_field computes them)
+    singularities = field_singularities(V, T, c.U, c.W)[0]
+    return (len(T),) + best + (peak_mb(), len(singularities), int(c.released.sum()),
+                               float(conjugacy_error(c.U, c.W, cv).mean()), digest[:12])
 
 
 def main(argv=None) -> None:

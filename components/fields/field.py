@@ -50,6 +50,7 @@ from components.fields.frames import (
     check_field,
 )
 from components.core.blas import single_blas_thread
+from components.core.memo import ContentCache, digest
 from components.core.checks import check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.mesh import triangulate
@@ -83,7 +84,8 @@ class Field(NamedTuple):
     principal directions (the larger of the two directions' angles to the nearest principal line),
     ``conjugacy_error`` (m,) ``|II(U, W)| / (|k1| + |k2|)`` (0 for a conjugate pair), ``anisotropy`` (m,) the
     curvature anisotropy used as alignment weight, ``released`` (m,) bool: faces a conjugate field released from
-    conjugacy (``None`` for other fields).
+    conjugacy (``None`` for other fields). A field computed with ``diagnostics=False`` has ``None`` for the
+    singularities, their indices and the two errors.
     """
 
     U: np.ndarray
@@ -222,9 +224,8 @@ def _factor(A: sp.spmatrix):
 def _pinned_solver(A, free: np.ndarray, c: np.ndarray):
     """Factor ``A`` on the ``free`` faces once; returns ``b ↦`` the solution with the other entries kept at ``c``."""
     if free.all():
-        lu, fixed = _factor(A), 0.0
-    else:
-        lu, fixed = _factor(A[free][:, free]), A[free][:, ~free] @ c[~free]
+        return _factor(A).solve  # nothing pinned: the solution itself
+    lu, fixed = _factor(A[free][:, free]), A[free][:, ~free] @ c[~free]
 
     def solve(b: np.ndarray) -> np.ndarray:
         out = c.copy()
@@ -289,9 +290,12 @@ def _roots(X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u = np.sqrt(t1)
     v = np.sqrt(t2)
     # degenerate coefficients (both zero): any orthogonal pair
-    zu = np.abs(u) == 0
-    u = np.where(zu, 1.0, u)
-    v = np.where(np.abs(v) == 0, 1j * u, v)
+    zu = u == 0
+    if zu.any():
+        u = np.where(zu, 1.0, u)
+    zv = v == 0
+    if zv.any():
+        v = np.where(zv, 1j * u, v)
     return u / np.abs(u), v / np.abs(v)
 
 
@@ -358,12 +362,28 @@ def _alignment_error(U, W, cv: FieldCurvature, fr: FaceFrames) -> np.ndarray:
     return out
 
 
-def _finish(V, T, u, v, fr, dg, cv, aniso) -> Field:
+def _finish(V, T, u, v, fr, dg, cv, aniso, diagnostics: bool = True) -> Field:
+    """The combed field of the pair ``u, v`` with its diagnostics (singularities, errors) or without them."""
     U = from_complex(u, fr)
     W = from_complex(v, fr)
     U, W, _ = comb_field(V, T, U, W, fr, dg)
+    if not diagnostics:
+        return Field(U, W, None, None, None, None, aniso)
     sing, index = field_singularities(V, T, U, W, fr, dg)
     return Field(U, W, sing, index, _alignment_error(U, W, cv, fr), conjugacy_error(U, W, cv), aniso)
+
+
+_FRAMES = ContentCache("field frames")  # the last mesh's face frames and dual graph (for the smooth, then the conjugate
+# field on it)
+
+
+def _frames(V: np.ndarray, T: np.ndarray) -> tuple[FaceFrames, DualGraph]:
+    """Face frames and dual graph of a validated mesh, kept for the next field on the same mesh."""
+    def build():
+        fr = face_frames(V, T)
+        return fr, dual_graph(V, T, fr)
+
+    return _FRAMES.get(digest(V, T), build)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -374,7 +394,7 @@ def _finish(V, T, u, v, fr, dg, cv, aniso) -> Field:
 def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, constraints=None,
                  constraint_weight: float | None = None, align_boundary: bool = True, boundary_weight: float = 10.0,
                  curvature: FieldCurvature | None = None, curvature_radius: int = 2,
-                 normalize_iterations: int = 20) -> Field:
+                 normalize_iterations: int = 20, diagnostics: bool = True) -> Field:
     """Smooth 4-PolyVector field softly aligned to the principal curvature directions.
 
     Parameters
@@ -408,6 +428,9 @@ def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, con
         with an aligned boundary the four quarter-turn singularities fuse into one polar point with wedge-shaped
         panels); each iteration re-solves with a pull of the face's mass towards the normalized field, which
         separates them (Ginzburg–Landau / MBO scheme, Viertel & Osting 2019).
+    diagnostics : bool
+        Compute the singularities and the alignment and conjugacy errors (False: ``None``, for callers that only
+        use the directions).
 
     Returns
     -------
@@ -444,8 +467,7 @@ def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, con
     if constraint_weight is not None:
         constraint_weight = check_number(constraint_weight, "constraint_weight", 0, above=True)
     m = len(T)
-    fr = face_frames(V, T)
-    dg = dual_graph(V, T, fr)
+    fr, dg = _frames(V, T)
     cv = _curvature_arg(curvature, V, T, check_int(curvature_radius, "curvature_radius", 1, 6), m)
     cons = _constraints_arg(constraints, m, fr)
     aniso = _anisotropy(cv)
@@ -463,8 +485,9 @@ def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, con
     else:
         Y = np.zeros(m, dtype=complex)
     u, v = _roots(X, Y)
-    fld = _finish(V, T, u, v, fr, dg, cv, aniso)
-    log.debug("smooth_frame_field: %d faces, %d singularities", m, len(fld.singularities))
+    fld = _finish(V, T, u, v, fr, dg, cv, aniso, diagnostics)
+    if diagnostics:
+        log.debug("smooth_frame_field: %d faces, %d singularities", m, len(fld.singularities))
     return fld
 
 
@@ -509,8 +532,10 @@ def _smooth_terms(V, fr: FaceFrames, dg: DualGraph, p: np.ndarray, aniso: np.nda
 _GRID = 24  # samples of the first direction's angle in a cold local step (7.5°), then refinements
 _CHUNK = 8192  # faces per block in the local step (bounds the temporaries: 2 MB arrays, fastest at 20k and 200k)
 _OFFSETS = np.linspace(-1.0, 1.0, 7)  # refinement samples around the best one, in steps of the level
-_MID = 3  # the offset 0: the best sample itself
-_AROUND = np.arange(len(_OFFSETS)) != _MID
+_MID = 3  # the offset 0: the best sample itself, stored last in a refinement (its cost is known)
+_AROUND = np.delete(_OFFSETS, _MID)  # the other offsets, stored first
+_LEVEL_ORDER = np.argsort(np.append(_AROUND, _OFFSETS[_MID]), kind="stable")  # the stored rows in the order of
+# _OFFSETS
 _ROUND = 1e-10  # the local step's inputs are rounded to this (see _local_step)
 
 
@@ -529,7 +554,7 @@ class _LocalStep(NamedTuple):
     tface: np.ndarray  # (t,) faces with a tangent (boundary or constraint) term
     T2: np.ndarray  # (t,) the tangent's doubled angle relative to p (unit complex)
     tw: np.ndarray  # (t,) weight of the tangent term
-    const: np.ndarray | None  # (m,) the tangent term on faces without a tangent (a constant); None: no term
+    const: np.ndarray | None  # (m,) twice the tangent term on faces without a tangent (a constant); None: no term
 
 
 def _local_step(p, k1, k2, min_angle: float, tau=None, tau_weight=10.0) -> _LocalStep:
@@ -557,8 +582,9 @@ def _local_step(p, k1, k2, min_angle: float, tau=None, tau_weight=10.0) -> _Loca
         tface = np.flatnonzero(has)
         # on the whole arrays, as the step always did (a complex product of a subset can differ by an ulp)
         T2 = np.where(has, (np.where(has, _round_unit(np.where(has, tau, 0.0)), 0.0) * np.conj(p)) ** 2, 0.0)[has]
-        # without a tangent the term is tau_weight · ½ (1 − max(0, 0)): the same constant for every sample
-        const = np.where(has, 0.0, 0.5 * tau_weight)
+        # without a tangent the term is tau_weight · ½ (1 − max(0, 0)): the same constant for every sample (doubled,
+        # as the costs, see _conjugate_cost)
+        const = np.where(has, 0.0, tau_weight)
     return _LocalStep(p, k1, k2, float(np.sin(min_angle) ** 2), tface, T2,
                       np.ascontiguousarray(tau_weight[tface]), const)
 
@@ -573,27 +599,30 @@ class _Block(NamedTuple):
     br: np.ndarray  # the same for the second direction
     bi: np.ndarray
     smin: float
-    const: np.ndarray | None  # tangent term on faces without a tangent
+    const: np.ndarray | None  # twice the tangent term on faces without a tangent
     tf: np.ndarray  # block-local indices of the faces with a tangent
     tr: np.ndarray  # their doubled tangent angle (real, imaginary part) and weight
     ti: np.ndarray
     tw: np.ndarray
 
 
-def _conjugate_cost(ca, sa, blk: _Block, want_swap: bool = False):
-    """Local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(k, n)`` (``k`` samples of
-    the ``n`` faces of a block), and where the second assignment of the pair to ``(u, v)`` wins (with
-    ``want_swap``).
+def _conjugate_cost(ca, sa, blk: _Block, want_swap: bool = False, out=None):
+    """Twice the local-step cost of the pairs ``(a, b(a))`` for angles given by ``cos a, sin a`` ``(k, n)`` (``k``
+    samples of the ``n`` faces of a block) (into ``out`` if given), or with ``want_swap`` only where the second
+    assignment of the pair to ``(u, v)`` wins: ``cost, None`` or ``None, swap``.
 
     Written with in-place operations on a few ``(k, n)`` buffers (the step runs it tens of times on every face);
-    every value is computed with the same operations in the same order as the plain formulas in the comments.
+    every value is computed with the same operations in the same order as the plain formulas in the comments. The
+    cost is doubled (its halvings left out: a doubling is exact, so the sums round alike and the doubled costs
+    compare as the costs do, bit for bit).
     """
     x = np.multiply(sa, -blk.k2)  # x, y = −k2 sin a, k1 cos a
     y = np.multiply(ca, blk.k1)
     xx = x * x
     yy = y * y
     r2 = xx + yy
-    np.copyto(r2, 1.0, where=~(r2 > 0))  # r2 = where(r2 > 0, r2, 1)
+    if not r2.all():  # r2 = where(r2 > 0, r2, 1) (a sum of squares: 0 or more)
+        np.copyto(r2, 1.0, where=r2 == 0.0)
     c2b = np.subtract(xx, yy, out=xx)  # doubled angle of b: (x² − y²) / r2, 2 x y / r2
     c2b /= r2
     s2b = np.multiply(x, 2.0, out=x)
@@ -614,7 +643,7 @@ def _conjugate_cost(ca, sa, blk: _Block, want_swap: bool = False):
 
     # 2 sin² of line angles = 1 − cos of doubled angles; both assignments of (a, b) to (α, β):
     # d1 = 2 − (c2a ar + s2a ai) − (c2b br + s2b bi), d2 = 2 − (c2a br + s2a bi) − (c2b ar + s2b ai)
-    d1 = pair(blk.ar, blk.ai, np.empty_like(c2a))
+    d1 = pair(blk.ar, blk.ai, np.empty_like(c2a) if out is None else out)
     np.subtract(2.0, d1, out=d1)
     e = np.multiply(c2b, blk.br)
     np.multiply(s2b, blk.bi, out=u)
@@ -626,23 +655,21 @@ def _conjugate_cost(ca, sa, blk: _Block, want_swap: bool = False):
     np.multiply(s2b, blk.ai, out=u)
     t += u
     d2 -= t
-    swap = np.less(d2, d1) if want_swap else None
-    D = np.minimum(d1, d2, out=d1)  # D = 0.5 min(d1, d2)
-    D *= 0.5
-    # sep = 0.5 (1 − (c2a c2b + s2a s2b)); D += where(sep < smin, 4 + (smin − sep), 0)
-    sep = np.multiply(c2a, c2b, out=d2)
+    if want_swap:
+        return None, np.less(d2, d1)
+    D = np.minimum(d1, d2, out=d1)  # D = 2 · ½ min(d1, d2)
+    # sep2 = 2 sep = 1 − (c2a c2b + s2a s2b); D += where(sep < smin, 2 (4 + (smin − sep)), 0)
+    sep2 = np.multiply(c2a, c2b, out=d2)
     np.multiply(s2a, s2b, out=u)
-    sep += u
-    np.subtract(1.0, sep, out=sep)
-    sep *= 0.5
-    close = sep < blk.smin
-    np.subtract(blk.smin, sep, out=sep)
-    sep += 4.0
-    sep[~close] = 0.0
-    D += sep
+    sep2 += u
+    np.subtract(1.0, sep2, out=sep2)
+    smin2 = 2.0 * blk.smin
+    close = np.nonzero(sep2 < smin2)  # few samples (~1 %): the penalty on them only
+    if len(close[0]):
+        D[close] += (smin2 - sep2[close]) + 8.0
     if blk.const is not None:
-        # tb = 0.5 (1 − max(c2a tr + s2a ti, c2b tr + s2b ti)); D += tau_weight tb, on the faces with a tangent
-        # (elsewhere the term is the constant tau_weight / 2)
+        # tb = 0.5 (1 − max(c2a tr + s2a ti, c2b tr + s2b ti)); D += 2 tau_weight tb, on the faces with a tangent
+        # (elsewhere the term is the constant 2 tau_weight / 2)
         D += blk.const
         if len(blk.tf):
             f = blk.tf
@@ -650,10 +677,9 @@ def _conjugate_cost(ca, sa, blk: _Block, want_swap: bool = False):
             tb = c2b[:, f] * blk.tr + s2b[:, f] * blk.ti
             np.maximum(ta, tb, out=ta)
             np.subtract(1.0, ta, out=ta)
-            ta *= 0.5
             ta *= blk.tw
             D[:, f] += ta
-    return D, swap
+    return D, None
 
 
 def _block(ls: _LocalStep, lo: int, hi: int, A2: np.ndarray, B2: np.ndarray) -> _Block:
@@ -677,28 +703,49 @@ def _columns(blk: _Block, cols: np.ndarray) -> _Block:
                   blk.tw[keep])
 
 
-_TIE = 1e-12  # sample costs closer than this are recomputed from exact cosines (see _best_sample)
+_TIE = 2e-12  # doubled sample costs closer than this (costs within 1e-12) are recomputed from exact cosines
+# (see _best_sample)
 
 
-def _best_sample(a, ca, sa, D, blk: _Block) -> np.ndarray:
-    """Per face (column), the index of the lowest-cost sample.
+def _best_sample(a, ca, sa, D, blk: _Block, order=None) -> tuple[np.ndarray, np.ndarray]:
+    """Per face (column), the row of the lowest-cost sample and its cost (``order``: the rows in sample order, which
+    decides between equal costs as ``np.argmin`` over the rows in that order; None: as stored).
 
     The samples' cosines and sines are rotations (an ulp off ``np.cos``/``np.sin`` of the angles), and so are their
     costs. Two samples can tie exactly (``a`` and ``b(a)`` are the same pair), and then the last bit decides: on
-    the faces whose two best costs are within :data:`_TIE` the samples are recomputed from ``np.cos(a), np.sin(a)``
-    (in place), so the winner is the one exact cosines give (the margin is far above the few ulps, ~1e-15, by which
-    a rotation moves a cost): the step picks the same samples as with ``np.cos`` everywhere, bit for bit.
+    the faces whose two best (doubled) costs are within :data:`_TIE` the samples are recomputed from
+    ``np.cos(a), np.sin(a)`` (in place), so the winner is the one exact cosines give (the margin is far above the few
+    ulps, ~1e-15, by which a rotation moves a cost): the step picks the same samples as with ``np.cos`` everywhere,
+    bit for bit.
     """
-    j = np.argmin(D, axis=0)
-    low = D[j, np.arange(D.shape[1])] + _TIE
-    tie = np.flatnonzero(np.count_nonzero(D <= low, axis=0) > 1)
+    order = np.arange(len(D)) if order is None else order
+    j, low = _first_min(D, order)
+    near = np.less_equal(D, low + _TIE).view(np.int8)
+    tie = np.flatnonzero(near.sum(axis=0, dtype=np.int8) > 1)  # two or more samples within the margin
     if len(tie):
         at = a[:, tie]
         ca[:, tie] = np.cos(at)
         sa[:, tie] = np.sin(at)
         D[:, tie] = _conjugate_cost(ca[:, tie], sa[:, tie], _columns(blk, tie))[0]
-        j[tie] = np.argmin(D[:, tie], axis=0)
-    return j
+        j[tie], low[tie] = _first_min(D[:, tie], order)
+    return j, low
+
+
+def _first_min(D: np.ndarray, order: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per column of ``D`` (k, n), the row of the smallest value (the first in ``order`` among equal ones) and that
+    value: ``np.argmin`` over the rows in ``order``, without its per-column loop (a column-wise minimum, then the
+    equal rows ranked by weights)."""
+    k = len(D)
+    low = D.min(axis=0)
+    if np.isnan(low).any():  # NaN costs (from NaN input): np.argmin's own rule
+        j = order[np.argmin(D[order], axis=0)]
+        return j, D[j, np.arange(D.shape[1])]
+    rank = np.empty(k, dtype=np.uint8)
+    rank[order] = np.arange(k, 0, -1)  # the first row in order weighs most
+    row = np.empty(k + 1, dtype=np.intp)
+    row[rank] = np.arange(k)
+    top = (np.equal(D, low).view(np.uint8) * rank[:, None]).max(axis=0)
+    return row.take(top), low
 
 
 def _closest_conjugate(u, v, ls: _LocalStep, start=None):
@@ -722,8 +769,8 @@ def _closest_conjugate(u, v, ls: _LocalStep, start=None):
     pc = np.conj(p)
     zu = u * pc
     zv = v * pc
-    A2 = (u * pc) ** 2  # doubled angles relative to the principal direction
-    B2 = (v * pc) ** 2
+    A2 = zu ** 2  # doubled angles relative to the principal direction
+    B2 = zv ** 2
     best = np.empty(m)
     swap = np.empty(m, dtype=bool)
     if start is not None:
@@ -737,12 +784,14 @@ def _closest_conjugate(u, v, ls: _LocalStep, start=None):
     x, y = -ls.k2 * bsin, ls.k1 * bcos
     vb = p * (x + 1j * y)
     nb = np.abs(vb)
-    vb = np.where(nb > 0, vb / np.where(nb > 0, nb, 1.0), 1j * ua)
+    vb = vb / np.where(nb > 0, nb, 1.0)
+    if not (nb > 0).all():
+        vb = np.where(nb > 0, vb, 1j * ua)
     pu = np.where(swap, vb, ua)
     pv = np.where(swap, ua, vb)
     # keep the orientation of the input vectors
-    pu = np.where((pu * np.conj(u)).real < 0, -pu, pu)
-    pv = np.where((pv * np.conj(v)).real < 0, -pv, pv)
+    np.negative(pu, out=pu, where=(pu * np.conj(u)).real < 0)
+    np.negative(pv, out=pv, where=(pv * np.conj(v)).real < 0)
     return pu, pv, np.mod(best, np.pi)
 
 
@@ -756,27 +805,36 @@ def _search(blk: _Block, zu, zv, start):
         step, levels = np.pi / _GRID, 3
         ca, sa = np.cos(a), np.sin(a)
     else:
-        a = np.stack([start, np.angle(zu), np.angle(zv)])
         step, levels = np.pi / 90.0, 2
-        az, bz = np.abs(zu), np.abs(zv)
-        ca = np.stack([np.cos(start), zu.real / az, zv.real / bz])
-        sa = np.stack([np.sin(start), zu.imag / az, zv.imag / bz])
+        # the rows start, arg zu, arg zv (np.angle is this arctan2), their cosines and sines
+        a, ca, sa = (np.empty((3, n)) for _ in range(3))
+        a[0] = start
+        np.cos(start, out=ca[0])
+        np.sin(start, out=sa[0])
+        for r, z in ((1, zu), (2, zv)):
+            np.arctan2(z.imag, z.real, out=a[r])
+            az = np.abs(z)
+            np.divide(z.real, az, out=ca[r])
+            np.divide(z.imag, az, out=sa[r])
     D, _ = _conjugate_cost(ca, sa, blk)
-    j = _best_sample(a, ca, sa, D, blk)
-    b, bc, bs, bD = a[j, cols], ca[j, cols], sa[j, cols], D[j, cols]
+    j, bD = _best_sample(a, ca, sa, D, blk)
+    at = j * n + cols  # the best sample's flat index
+    b, bc, bs = a.take(at), ca.take(at), sa.take(at)
     a, ca, sa, D = (np.empty((len(_OFFSETS), n)) for _ in range(4))
+    k = len(_AROUND)
     for _ in range(levels):
-        # the samples b + step · offset; the middle one (offset 0) is b itself, its cost is known
-        d = step * _OFFSETS[_AROUND]
-        cd, sd = np.cos(d)[:, None], np.sin(d)[:, None]
-        a[_AROUND] = b[None, :] + d[:, None]
-        ca[_AROUND] = bc * cd - bs * sd  # cos, sin of b + d
-        sa[_AROUND] = bs * cd + bc * sd
-        a[_MID], ca[_MID], sa[_MID] = b, bc, bs
-        D[_AROUND] = _conjugate_cost(ca[_AROUND], sa[_AROUND], blk)[0]
-        D[_MID] = bD
-        j = _best_sample(a, ca, sa, D, blk)
-        b, bc, bs, bD = a[j, cols], ca[j, cols], sa[j, cols], D[j, cols]
+        # the samples b + step · offset in the first rows; the last row is b itself (offset 0), its cost is known
+        d = (step * _AROUND)[:, None]
+        cd, sd = np.cos(d), np.sin(d)
+        np.add(b[None, :], d, out=a[:k])
+        np.subtract(np.multiply(bc, cd, out=ca[:k]), bs * sd, out=ca[:k])  # cos, sin of b + d
+        np.add(np.multiply(bs, cd, out=sa[:k]), bc * sd, out=sa[:k])
+        a[k], ca[k], sa[k] = b, bc, bs
+        _conjugate_cost(ca[:k], sa[:k], blk, out=D[:k])
+        D[k] = bD
+        j, bD = _best_sample(a, ca, sa, D, blk, _LEVEL_ORDER)
+        at = j * n + cols
+        b, bc, bs = a.take(at), ca.take(at), sa.take(at)
         step /= 3.0
     swap = _conjugate_cost(np.cos(b)[None, :], np.sin(b)[None, :], blk, want_swap=True)[1][0]
     return b, swap
@@ -817,7 +875,7 @@ def conjugate_frame_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.n
                     min_angle: float = np.radians(25.0), align_boundary: bool = True, constraints=None,
                     curvature: FieldCurvature | None = None, curvature_radius: int = 2,
                     release_angle: float | None = np.radians(20.0),
-                    release_separation: float = np.radians(45.0)) -> Field:
+                    release_separation: float = np.radians(45.0), diagnostics: bool = True) -> Field:
     """Conjugate direction field near a given field: local-global alternation of Liu et al. 2011.
 
     Parameters
@@ -863,6 +921,9 @@ def conjugate_frame_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.n
         asymptotic direction) the pair turns quickly from face to face: the field is far from integrable there
         and the parametrization compresses or folds (on the ``wave`` sample: pairs down to the 25° bound, eight
         singularities instead of two, stretched rows of panels along the boundary; 0 disables).
+    diagnostics : bool
+        Compute the singularities and the alignment and conjugacy errors (False: ``None``, for callers that only
+        use the directions).
 
     Returns
     -------
@@ -902,24 +963,25 @@ def conjugate_frame_field(V: np.ndarray, T: np.ndarray, U0: np.ndarray, W0: np.n
     smoothness, iterations, conjugacy_weight, closeness, min_angle, release_angle, release_separation = \
         _conjugate_options(smoothness, iterations, conjugacy_weight, closeness, min_angle, release_angle,
                            release_separation)
-    fr = face_frames(V, T)
-    dg = dual_graph(V, T, fr)
+    fr, dg = _frames(V, T)
     cv = _curvature_arg(curvature, V, T, check_int(curvature_radius, "curvature_radius", 1, 6), m)
     pb = _conjugate_problem(V, U0, W0, fr, dg, cv, smoothness, closeness, min_angle, align_boundary, constraints)
     wc = conjugacy_weight * _AREA_SCALE * (fr.area / float(fr.area.sum())) * _conjugacy_weights(cv)
     active = _conjugacy_weights(cv) > 0
-    u, v, a, pu, pv = _local_global(pb, pb.u0, pb.v0, None, wc, active, iterations)
+    u, v, step = _local_global(pb, pb.u0, pb.v0, None, wc, active, iterations)
     released = np.zeros(m, dtype=bool)
     if release_angle is not None:
-        released, active, u, v, pu, pv = _release(pb, u, v, a, pu, pv, wc, active, max(1, iterations // 4),
-                                                  release_angle, release_separation)
+        released, active, u, v, step = _release(pb, u, v, step, wc, active, max(1, iterations // 4),
+                                                release_angle, release_separation)
+    pu, pv, _ = step
     u = np.where(active, pu, u)
     v = np.where(active, pv, v)
     if pb.fixed is not None:
         u[pb.fixed[0]], v[pb.fixed[0]] = pb.fixed[1], pb.fixed[2]
-    fld = _finish(V, T, u, v, fr, dg, cv, pb.aniso)._replace(released=released)
-    log.debug("conjugate_frame_field: %d faces, %d singularities, mean conjugacy error %.2e, %d released", m,
-              len(fld.singularities), float(fld.conjugacy_error.mean()), int(released.sum()))
+    fld = _finish(V, T, u, v, fr, dg, cv, pb.aniso, diagnostics)._replace(released=released)
+    if diagnostics:
+        log.debug("conjugate_frame_field: %d faces, %d singularities, mean conjugacy error %.2e, %d released", m,
+                  len(fld.singularities), float(fld.conjugacy_error.mean()), int(released.sum()))
     return fld
 
 
@@ -942,12 +1004,8 @@ def _conjugate_options(smoothness, iterations, conjugacy_weight, closeness, min_
 class _ConjugateProblem(NamedTuple):
     """What the local-global iterations of :func:`conjugate_frame_field` share."""
 
-    cv: FieldCurvature
     aniso: np.ndarray  # (m,) curvature anisotropy
-    p: np.ndarray  # (m,) unit complex principal direction d1
-    min_angle: float
-    tau: np.ndarray | None  # (m,) unit complex boundary (or constraint) tangent, NaN where none
-    tau_w: np.ndarray  # (m,) weight of the tangent term
+    ls: _LocalStep  # the local step's fixed inputs: principal directions and curvatures, angle bound, tangents
     fixed: tuple | None  # (faces, u, v): faces whose pair is prescribed
     u0: np.ndarray  # (m,) unit complex start pair
     v0: np.ndarray
@@ -982,47 +1040,53 @@ def _conjugate_problem(V, U0, W0, fr: FaceFrames, dg: DualGraph, cv: FieldCurvat
     w0 = closeness * _AREA_SCALE * (fr.area / float(fr.area.sum()))
     LX = smoothness * _connection_laplacian(dg, m, 4)
     LY = smoothness * _connection_laplacian(dg, m, 2)
-    return _ConjugateProblem(cv, _anisotropy(cv), _principal_complex(cv, fr), min_angle, tau, tau_w, fixed, u0, v0,
-                             X0, Y0, w0, LX, LY)
+    ls = _local_step(_principal_complex(cv, fr), cv.k1, cv.k2, min_angle, tau, tau_w)
+    return _ConjugateProblem(_anisotropy(cv), ls, fixed, u0, v0, X0, Y0, w0, LX, LY)
 
 
-def _local_global(pb: _ConjugateProblem, u, v, a, wc: np.ndarray, active: np.ndarray, count: int):
-    """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve."""
+def _local_global(pb: _ConjugateProblem, u, v, step, wc: np.ndarray, active: np.ndarray, count: int):
+    """``count`` alternations: closest conjugate pairs on the active faces, then the smoothing solve.
+
+    ``step`` is the local step at ``u, v`` (pairs and angles, as :func:`_closest_conjugate` returns them) when known,
+    None for a cold start. Returns the final ``u, v`` and the local step at them (the first of a next run).
+    """
     luX = _factor(pb.LX + sp.diags((wc + pb.w0).astype(complex)))
     luY = _factor(pb.LY + sp.diags((wc + pb.w0).astype(complex)))
-    ls = _local_step(pb.p, pb.cv.k1, pb.cv.k2, pb.min_angle, pb.tau, pb.tau_w)
+    bX, bY = pb.w0 * pb.X0, pb.w0 * pb.Y0  # the start field's pull, the same in every solve
+    every = bool(active.all())
     for _ in range(count):
-        pu, pv, a = _closest_conjugate(u, v, ls, start=a)
-        pu = np.where(active, pu, u)
-        pv = np.where(active, pv, v)
+        pu, pv, a = _closest_conjugate(u, v, pb.ls) if step is None else step
+        if not every:
+            pu = np.where(active, pu, u)
+            pv = np.where(active, pv, v)
         if pb.fixed is not None:
             pu[pb.fixed[0]], pv[pb.fixed[0]] = pb.fixed[1], pb.fixed[2]
         Xp, Yp = _poly(pu, pv)
-        X = luX.solve(wc * Xp + pb.w0 * pb.X0)
-        Y = luY.solve(wc * Yp + pb.w0 * pb.Y0)
+        X = luX.solve(wc * Xp + bX)
+        Y = luY.solve(wc * Yp + bY)
         u, v = _roots(X, Y)
-    pu, pv, _ = _closest_conjugate(u, v, ls, start=a)
-    return u, v, a, pu, pv
+        step = _closest_conjugate(u, v, pb.ls, start=a)
+    return u, v, step
 
 
-def _release(pb: _ConjugateProblem, u, v, a, pu, pv, wc: np.ndarray, active: np.ndarray, count: int,
+def _release(pb: _ConjugateProblem, u, v, step, wc: np.ndarray, active: np.ndarray, count: int,
              release_angle: float, release_separation: float):
-    """Release the faces whose closest conjugate pair is far from the smoothed pair and re-run ``count``
-    iterations without them: ``released, active, u, v, pu, pv``.
+    """Release the faces whose closest conjugate pair (of the local ``step`` at ``u, v``) is far from the smoothed
+    pair and re-run ``count`` iterations without them: ``released, active, u, v, step``.
 
     Such faces (parabolic lines, where conjugate pairs collapse onto the asymptotic direction, or a jump to the
     other branch) would fold the field: they are released from conjugacy and the global step re-run so the field
     passes them smoothly; faces that are far after the re-run are released too.
     """
-    released = _far_faces(pb, pu, pv, u, v, active, release_angle, release_separation)
+    released = _far_faces(pb, step[0], step[1], u, v, active, release_angle, release_separation)
     if released.any():
         wc = np.where(released, 0.0, wc)
         active = active & ~released
-        u, v, a, pu, pv = _local_global(pb, u, v, a, wc, active, count)
-        late = _far_faces(pb, pu, pv, u, v, active, release_angle, release_separation)
+        u, v, step = _local_global(pb, u, v, step, wc, active, count)
+        late = _far_faces(pb, step[0], step[1], u, v, active, release_angle, release_separation)
         released |= late
         active = active & ~late
-    return released, active, u, v, pu, pv
+    return released, active, u, v, step
 
 
 def _far_faces(pb: _ConjugateProblem, pu, pv, u, v, active: np.ndarray, release_angle: float,

@@ -220,10 +220,12 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
     if field == "principal":
         return _smoothed_principal_field(V, T, alignment, constraints)
     cv = field_curvature(V, T)  # once for both fields
-    fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints, curvature=cv)
+    # the directions only: the fields' singularities and errors are not needed here
+    fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints, curvature=cv, diagnostics=False)
     if field == "conjugate":
         extra = {} if release_separation is None else {"release_separation": release_separation}
-        fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, curvature=cv, **extra)
+        fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, curvature=cv, diagnostics=False,
+                                    **extra)
     return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
 
 
