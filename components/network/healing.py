@@ -173,6 +173,11 @@ def _angles3(P, Q) -> np.ndarray:
     return out
 
 
+# math.atan2 element by element: numpy's SIMD arctan2 differs from the C library's in the last bit on some CPUs
+# (7 % of values on an AVX-512 machine), and the per-cell path (:func:`_angles3`) uses the C library's
+_ATAN2 = np.frompyfunc(math.atan2, 2, 1)
+
+
 def _angles3_many(P, Q) -> np.ndarray:
     """:func:`_angles3` of ``n`` cells with ``k`` corners each at once: ``P (n, k, 2)``, ``Q (n, k, 3)`` → ``(n, k)``,
     the same numbers (the same operations in the same order, vectorized over the cells)."""
@@ -183,7 +188,7 @@ def _angles3_many(P, Q) -> np.ndarray:
     ax, ay, az = X[:, nxt] - X, Y[:, nxt] - Y, Z[:, nxt] - Z
     bx, by, bz = X[:, prv] - X, Y[:, prv] - Y, Z[:, prv] - Z
     wx, wy, wz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-    a3 = np.degrees(np.arctan2(np.sqrt(wx * wx + wy * wy + wz * wz), ax * bx + ay * by + az * bz))
+    a3 = np.degrees(_ATAN2(np.sqrt(wx * wx + wy * wy + wz * wz), ax * bx + ay * by + az * bz).astype(np.float64))
     U, V = P[..., 0], P[..., 1]
     reflex = (U[:, nxt] - U) * (V[:, prv] - V) - (V[:, nxt] - V) * (U[:, prv] - U) < 0.0
     if k > 3:
