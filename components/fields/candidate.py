@@ -24,7 +24,7 @@ from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core import progress
 from components.core.errors import InputError
-from components.core.measures import quad_planarity
+from components.core.measures import cross, quad_planarity
 from components.core.mesh import edge_topology, face_sizes, triangulate
 from components.core.proximity import TriangleIndex
 from components.core.types import Mesh, Texts
@@ -192,8 +192,8 @@ def _score(ex, target: float) -> tuple:
     to 95%), then the mean edge length nearest the target (the panel count the user asked for)."""
     if len(ex.F) == 0:
         return (False, 0.0, 0.0)
-    q = candidate_quality(ex.V, ex.F, target)
-    return (q.quad_ratio >= 0.95, min(q.edge_length_within, 0.95), -abs(q.mean_edge_length / target - 1.0))
+    quad_ratio, within, mean_edge = _shares(ex.V, ex.F, target)  # candidate_quality without the planarity
+    return (quad_ratio >= 0.95, min(within, 0.95), -abs(mean_edge / target - 1.0))
 
 
 @single_blas_thread()  # sparse factorizations: see components.core.blas
@@ -303,7 +303,7 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     other = int(len(s) - quads)
     if len(ex.F) == 0:
         warnings.append("no quads: the target length is too large for this surface")
-    area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
+    area = 0.5 * np.linalg.norm(cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1)
     mean_err = float(np.degrees(np.sum(par.angle_error * area) / area.sum()))
     ratio = quads / len(s) if len(s) else 0.0
     irregular = _irregular_vertices(ex.V, ex.F) if len(ex.F) else 0
@@ -375,13 +375,19 @@ def candidate_quality(V: np.ndarray, F: np.ndarray, target_length: float, spread
     """
     if len(F) == 0:
         return Quality(0.0, 0.0, 0.0, 0.0, 0.0)
-    s = face_sizes(F)
-    q = s == 4
+    q = face_sizes(F) == 4
     pl = np.abs(quad_planarity(V, F[q])) if q.any() else np.zeros(1)
+    return Quality(float(pl.max()), float(pl.mean()), *_shares(V, F, target_length, spread))
+
+
+def _shares(V: np.ndarray, F: np.ndarray, target_length: float, spread: float = 0.3) -> tuple:
+    """Quad share, share of edges within ``±spread`` of the target length and mean edge length of a non-empty
+    candidate (the planarity-free part of :func:`candidate_quality`)."""
+    q = face_sizes(F) == 4
     E = edge_topology(F).E
     L = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
     within = float(np.mean(np.abs(L / target_length - 1.0) <= spread))
-    return Quality(float(pl.max()), float(pl.mean()), float(q.mean()), within, float(L.mean()))
+    return float(q.mean()), within, float(L.mean())
 
 
 # ----------------------------------------------------------------------------------------------

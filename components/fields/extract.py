@@ -64,8 +64,8 @@ def _line_segments(UV: np.ndarray, k: int):
     """
     c = UV[:, :, k]
     o = UV[:, :, 1 - k]
-    lo = np.ceil(c.min(axis=1) - _TOL).astype(np.int64)
-    hi = np.floor(c.max(axis=1) + _TOL).astype(np.int64)
+    lo = np.ceil(np.minimum(np.minimum(c[:, 0], c[:, 1]), c[:, 2]) - _TOL).astype(np.int64)  # c.min(axis=1)
+    hi = np.floor(np.maximum(np.maximum(c[:, 0], c[:, 1]), c[:, 2]) + _TOL).astype(np.int64)
     cnt = np.maximum(hi - lo + 1, 0)
     tri = np.repeat(np.arange(len(UV)), cnt)
     start = np.repeat(np.cumsum(cnt) - cnt, cnt)
@@ -75,10 +75,12 @@ def _line_segments(UV: np.ndarray, k: int):
         return tri, z, np.zeros((0, 3)), np.zeros((0, 3)), z, z
     cs = c[tri]
     os_ = o[tri]
-    cand_b = np.zeros((len(tri), 6, 3))
-    cand_o = np.zeros((len(tri), 6))
-    ok = np.zeros((len(tri), 6), dtype=bool)
-    eye = np.eye(3)
+    # candidate endpoints 2e (where the line crosses edge e, or its first end when the edge lies on the line) and
+    # 2e + 1 (the second end of an edge on the line): their other coordinate, and the edge parameters
+    cand_o = np.empty((len(tri), 6))
+    ok = np.empty((len(tri), 6), dtype=bool)
+    S = np.empty((len(tri), 3))
+    ON = np.empty((len(tri), 3), dtype=bool)
     for e in range(3):
         a, b = e, (e + 1) % 3
         ca, cb = cs[:, a], cs[:, b]
@@ -88,23 +90,35 @@ def _line_segments(UV: np.ndarray, k: int):
         s = np.where(flat, 0.0, (val - ca) / np.where(flat, 1.0, den))
         hit = ~flat & (s >= -_TOL) & (s <= 1 + _TOL)
         s = np.clip(s, 0.0, 1.0)
-        cand_b[:, 2 * e] = (1 - s)[:, None] * eye[a] + s[:, None] * eye[b]
-        cand_o[:, 2 * e] = (1 - s) * os_[:, a] + s * os_[:, b]
+        cand_o[:, 2 * e] = np.where(on, os_[:, a], (1 - s) * os_[:, a] + s * os_[:, b])
         ok[:, 2 * e] = hit | on
         # a collinear edge contributes its second endpoint too
-        cand_b[:, 2 * e + 1] = eye[b]
         cand_o[:, 2 * e + 1] = os_[:, b]
         ok[:, 2 * e + 1] = on
-        cand_b[on, 2 * e] = eye[a]
-        cand_o[on, 2 * e] = os_[on, a]
-    big = np.where(ok, cand_o, np.inf)
-    small = np.where(ok, cand_o, -np.inf)
-    i0 = np.argmin(big, axis=1)
-    i1 = np.argmax(small, axis=1)
+        S[:, e] = s
+        ON[:, e] = on
+    i0 = np.argmin(np.where(ok, cand_o, np.inf), axis=1)
+    i1 = np.argmax(np.where(ok, cand_o, -np.inf), axis=1)
     r = np.arange(len(tri))
     o0, o1 = cand_o[r, i0], cand_o[r, i1]
-    good = ok.any(axis=1) & (o1 - o0 > _TOL)
-    return tri[good], val[good], cand_b[r, i0][good], cand_b[r, i1][good], o0[good], o1[good]
+    good = np.nonzero(ok.any(axis=1) & (o1 - o0 > _TOL))[0]
+    return (tri[good], val[good], _candidate_bary(i0[good], S[good], ON[good]),
+            _candidate_bary(i1[good], S[good], ON[good]), o0[good], o1[good])
+
+
+def _candidate_bary(i: np.ndarray, S: np.ndarray, ON: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of the candidate endpoints ``i`` of :func:`_line_segments`: ``2e`` the point
+    ``(1 − s) c_e + s c_{e+1}`` of edge ``e`` (corner ``e`` itself where the edge lies on the line), ``2e + 1``
+    corner ``e + 1``; ``S, ON (s, 3)`` the edge parameters and on-the-line flags."""
+    r = np.arange(len(i))
+    e = i // 2
+    a, b = e, (e + 1) % 3
+    s = S[r, e]
+    cross_ = (i % 2 == 0) & ~ON[r, e]
+    B = np.zeros((len(i), 3))
+    B[r, np.where(i % 2 == 0, a, b)] = np.where(cross_, 1 - s, 1.0)
+    B[r[cross_], b[cross_]] = 0.0 + s[cross_]  # (1 − s) · 0 + s · 1 as e_a (1 − s) + e_b s has it: −0 → +0
+    return B
 
 
 def iso_segments(V: np.ndarray, T: np.ndarray, UV: np.ndarray) -> np.ndarray:
@@ -137,7 +151,46 @@ class _Points(NamedTuple):
     corner: np.ndarray  # (p,) bool: a sharp corner of the mesh boundary (kept as a vertex)
 
 
-def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
+class _Surface(NamedTuple):
+    """What every extraction on one input surface shares (:func:`_surface`)."""
+
+    P: np.ndarray  # (m, 3, 3) corner positions of the triangles
+    FN: np.ndarray  # (m, 3) unit normals
+    bh: np.ndarray  # (b,) boundary half-edges (face by face, corner by corner)
+    sharp_end: np.ndarray  # (b,) the outline turns by more than 35° at the end of the boundary half-edge
+    diag: float  # bounding-box diagonal
+
+
+_SHARP_CORNER = 35.0  # degrees: boundary corners turning more than this stay vertices of the candidate
+_SURFACES = ContentCache("extraction surfaces", entries=2)
+
+
+def _surface(V: np.ndarray, T: np.ndarray) -> _Surface:
+    """:class:`_Surface` of ``(V, T)``; the last ones are kept (keyed by the arrays' contents): the candidate
+    extracts six parametrizations of the same surface."""
+    return _SURFACES.get(digest(V, T), lambda: _surface_of(V, T))
+
+
+def _surface_of(V: np.ndarray, T: np.ndarray) -> _Surface:
+    P = V[T]
+    topo = edge_topology(T)
+    bh = np.nonzero(topo.count[topo.HE] != 2)[0]  # half-edge order = face by face, corner by corner
+    FN = cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    FN /= np.linalg.norm(FN, axis=1, keepdims=True)
+    # sharp boundary corners: the turn between the boundary edge arriving at a vertex and the one leaving it
+    n = int(T.max()) + 1
+    H = np.stack([T.ravel(), np.roll(T, -1, axis=1).ravel()], axis=1)
+    dvec = V[H[bh, 1]] - V[H[bh, 0]]
+    dvec /= np.linalg.norm(dvec, axis=1, keepdims=True)
+    out_of = np.full(n, -1, dtype=np.int64)
+    out_of[H[bh, 0]] = np.arange(len(bh))
+    nxt_e = out_of[H[bh, 1]]
+    sharp_end = np.einsum("ij,ij->i", dvec, dvec[nxt_e]) < np.cos(np.radians(_SHARP_CORNER))
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    return _Surface(P, FN, bh, sharp_end, diag)
+
+
+def _pieces(T, UV, surf: _Surface):
     """Points and pieces (index pairs into the points) of the iso-line graph and of the split boundary."""
     tris, barys, grids, bnds = [], [], [], []
     pa, pb = [], []
@@ -154,9 +207,9 @@ def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
         seg = np.repeat(np.arange(len(tri)), npts)
         first = np.cumsum(npts) - npts
         pos = np.arange(len(seg)) - np.repeat(first, npts)  # 0 .. cnt+1
-        ov = np.where(pos == 0, o0[seg], np.where(pos == npts[seg] - 1, o1[seg],
-                                                    (jlo[seg] + pos - 1).astype(float)))
-        t = (ov - o0[seg]) / (o1[seg] - o0[seg])
+        o0s, o1s, last = o0[seg], o1[seg], np.repeat(npts - 1, npts)
+        ov = np.where(pos == 0, o0s, np.where(pos == last, o1s, (np.repeat(jlo - 1, npts) + pos).astype(float)))
+        t = (ov - o0s) / (o1s - o0s)
         bary = (1 - t)[:, None] * B0[seg] + t[:, None] * B1[seg]
         isint = np.abs(ov - np.round(ov)) <= 1e-7
         tris.append(tri[seg])
@@ -164,12 +217,12 @@ def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
         grids.append(isint)
         bnds.append(np.zeros(len(seg), dtype=bool))
         idx = base + np.arange(len(seg))
-        nxt = pos < npts[seg] - 1
+        nxt = pos < last
         pa.append(idx[nxt])
         pb.append(idx[nxt] + 1)
         base += len(seg)
     # boundary edges split at the iso-line hits
-    bh = np.nonzero(~twin_mask)[0]
+    bh = surf.bh
     f = bh // 3
     i0 = bh % 3
     i1 = (i0 + 1) % 3
@@ -203,16 +256,7 @@ def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
     same = owner[1:] == owner[:-1]
     pa.append(idx[:-1][same])
     pb.append(idx[1:][same])
-    # sharp boundary corners: the turn between the boundary edge arriving at a vertex and the one leaving it
-    n = int(T.max()) + 1
-    H = np.stack([T.ravel(), np.roll(T, -1, axis=1).ravel()], axis=1)
-    dvec = V[H[bh, 1]] - V[H[bh, 0]]
-    dvec /= np.linalg.norm(dvec, axis=1, keepdims=True)
-    out_of = np.full(n, -1, dtype=np.int64)
-    out_of[H[bh, 0]] = np.arange(len(bh))
-    nxt_e = out_of[H[bh, 1]]
-    sharp_end = np.einsum("ij,ij->i", dvec, dvec[nxt_e]) < np.cos(np.radians(corner_angle))
-    sharp_pt = (ss >= 1.0) & sharp_end[owner]
+    sharp_pt = (ss >= 1.0) & surf.sharp_end[owner]
     corners = [np.zeros(len(t), dtype=bool) for t in tris[:-1]] + [sharp_pt]
     pts = _Points(np.concatenate(tris), np.concatenate(barys), np.concatenate(grids), np.concatenate(bnds),
                   np.concatenate(corners))
@@ -225,8 +269,7 @@ def _pieces(V, T, UV, twin_mask, corner_angle=35.0):
 
 def _merge_close(X: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
     """Union of points closer than ``r``: ``label (p,)`` and the representative (first) point of each label."""
-    tree = cKDTree(X, balanced_tree=False)  # the same pairs; the sliding-midpoint build is ~25% faster here
-    pairs = tree.query_pairs(r, output_type="ndarray")
+    pairs = _close_pairs(X, r)
     n = len(X)
     if len(pairs) == 0:
         return np.arange(n, dtype=np.int64), np.arange(n, dtype=np.int64)
@@ -238,12 +281,40 @@ def _merge_close(X: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
     return lab, rep
 
 
+def _close_pairs(X: np.ndarray, r: float) -> np.ndarray:
+    """Pairs ``(i, j)``, ``i < j``, of points ``X (p, 3)`` at most ``r`` apart (the pairs of
+    ``cKDTree.query_pairs``, in another order).
+
+    The points are sorted along a generic direction ``w`` (unit length): points within ``r`` of each other are
+    within ``r`` along it, so each point is compared only with the next ones up to ``r`` (and a rounding margin)
+    farther along ``w``. Fast for a radius well below the points' spacing (the merges here: coincident points,
+    slivers): the windows then hold the close points alone, where the k-d tree's build and traversal cost
+    several times more."""
+    n = len(X)
+    if n < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    w = np.array([0.6, 0.48, 0.64])  # unit; no axis, so rows of points on an axis-parallel line do not share a slot
+    s = X @ w
+    order = np.argsort(s)  # the pairs do not depend on the order of equal keys
+    ss = s[order]
+    slack = 1e-12 * float(np.abs(ss).max()) + 1e-9 * r
+    end = np.searchsorted(ss, ss + (r + slack), side="right")
+    cnt = end - np.arange(n) - 1
+    i = np.repeat(np.arange(n), cnt)
+    j = i + 1 + (np.arange(len(i)) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+    Xs = X[order]  # neighbours in the order: the candidates' coordinates are read almost in sequence
+    D = Xs[i] - Xs[j]
+    near = np.einsum("ij,ij->i", D, D) <= r * r
+    a, b = order[i[near]], order[j[near]]
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+
+
 def _tangent_angles(D: np.ndarray, N: np.ndarray) -> np.ndarray:
     """Angle of vectors ``D`` in the tangent plane of unit normals ``N`` (any consistent in-plane basis)."""
     a = np.where(np.abs(N[:, 0:1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
     e1 = a - N * np.einsum("ij,ij->i", a, N)[:, None]
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(N, e1)
+    e2 = cross(N, e1)
     return np.arctan2(np.einsum("ij,ij->i", D, e2), np.einsum("ij,ij->i", D, e1))
 
 
@@ -305,7 +376,7 @@ def _faces_from_graph(X, N, a, b, da, db):
     P = P - P[starts][cid]  # about a corner: far from the origin the products would cancel
     nxt_pos = np.arange(len(flat)) + 1
     nxt_pos[starts + lens - 1] = starts
-    S = np.add.reduceat(np.cross(P, P[nxt_pos]), starts, axis=0)
+    S = np.add.reduceat(cross(P, P[nxt_pos]), starts, axis=0)
     nrm = np.add.reduceat(N[flat], starts, axis=0) / lens[:, None]
     area = 0.5 * np.einsum("ij,ij->i", S, nrm)
     return flat, hes, starts, lens, area
@@ -361,38 +432,37 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     V = np.asarray(V, dtype=np.float64)
     T = np.asarray(T, dtype=np.int64)
     UV = np.asarray(UV, dtype=np.float64)
-    P = V[T]
+    surf = _surface(V, T)
+    P = surf.P
     if target_length is None:
         e3 = np.linalg.norm(P[:, 1] - P[:, 0], axis=1)
         eu = np.linalg.norm(UV[:, 1] - UV[:, 0], axis=1)
         ok = eu > 1e-12
         target_length = float(np.median(e3[ok] / eu[ok])) if ok.any() else 1.0
     h = float(target_length)
-    topo = edge_topology(T)
-    twin_mask = topo.count[topo.HE] == 2  # half-edge order = face by face, corner by corner
-    pts, pa, pb = _pieces(V, T, UV, twin_mask)
+    pts, pa, pb = _pieces(T, UV, surf)
     X = np.einsum("pk,pkd->pd", pts.bary, P[pts.tri])
     timings["pieces"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     # exact coincidences first (the same point computed in two triangles)
-    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-    lab, rep = _merge_close(X, 1e-9 * max(diag, 1e-300) + 1e-7 * h)
+    lab, rep = _merge_close(X, 1e-9 * max(surf.diag, 1e-300) + 1e-7 * h)
     nn = len(rep)
     grid = np.zeros(nn, dtype=bool)
-    np.logical_or.at(grid, lab, pts.grid)
+    grid[lab[pts.grid]] = True
     bnd = np.zeros(nn, dtype=bool)
-    np.logical_or.at(bnd, lab, pts.bnd)
+    bnd[lab[pts.bnd]] = True
     # prefer a grid point as the representative position
     a, b = lab[pa], lab[pb]
     keep = a != b
     a, b = a[keep], b[keep]
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = np.unique(lo * nn + hi)
+    key = np.sort(lo * nn + hi)
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique, sorting once
     a, b = key // nn, key % nn
     Xn = X[rep]
     deg = np.bincount(np.concatenate([a, b]), minlength=nn)
     corner = np.zeros(nn, dtype=bool)
-    np.logical_or.at(corner, lab, pts.corner)
+    corner[lab[pts.corner]] = True
     kept = grid | corner | (deg != 2)
     kept &= deg > 0
     timings["merge"] = time.perf_counter() - t1
@@ -405,9 +475,7 @@ def quad_mesh_from_parametrization(V: np.ndarray, T: np.ndarray, UV: np.ndarray,
     # exact rep for tri/bary (the representative point)
     node_tri = pts.tri[rep]
     node_bary = pts.bary[rep]
-    FN = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    FN /= np.linalg.norm(FN, axis=1, keepdims=True)
-    Nn = FN[node_tri[kn]]
+    Nn = surf.FN[node_tri[kn]]
     # half-edges that run along the mesh boundary against its orientation face the outside (also around holes)
     bdir = lab[pa[pts.bnd[pa] & pts.bnd[pb]]] * nn + lab[pb[pts.bnd[pa] & pts.bnd[pb]]]
     fwd = np.isin(ca * nn + first_o, bdir)
@@ -845,7 +913,9 @@ def relabel(Vc, Fc, tri, bary, grid, lab):
         at = np.concatenate([rows, np.asarray([r for r, _, _ in split], dtype=np.int64)])
         sub = np.concatenate([np.zeros(len(rows), dtype=np.int64), np.asarray([i for _, i, _ in split])])
         G = np.concatenate([G, extra])[np.lexsort((sub, at))]
-    used = np.unique(G)
+    used = np.zeros(len(Vc), dtype=bool)
+    used[G.ravel()] = True
+    used = np.nonzero(used)[0]  # np.unique(G), without sorting
     new = np.full(len(Vc), -1, dtype=np.int64)
     new[used] = np.arange(len(used))
     return Vc[used], new[G], tri[used], bary[used], grid[used]
@@ -1258,14 +1328,16 @@ def _drop_boundary_slivers(Vc, Fc, tri, bary, grid, h: float = 0.0, small: float
     topo = edge_topology(Fc)
     onb = np.zeros(len(Vc), dtype=bool)
     onb[topo.E[topo.count == 1].ravel()] = True
-    C = face_corners(Fc)
-    bad = np.zeros(len(Fc), dtype=bool)
-    bad[C.face[_degenerate(corner_angles(Vc, Fc))]] = True
-    allb = np.ones(len(Fc), dtype=bool)
-    np.logical_and.at(allb, C.face, onb[C.v])
+    # only the faces wholly on the boundary are measured (every measure is per face): the padding repeats a corner
+    allb = np.nonzero(onb[Fc].all(axis=1))[0]
+    if not len(allb):
+        return Vc, Fc, tri, bary, grid
+    Fb = Fc[allb]
+    bad = np.zeros(len(Fb), dtype=bool)
+    bad[face_corners(Fb).face[_degenerate(corner_angles(Vc, Fb))]] = True
     Xc = Vc - Vc.mean(axis=0)  # Newell products about the centre: far from the origin they would cancel
-    bad |= np.linalg.norm(face_normals(Xc, Fc, unit=False), axis=1) < small * h * h
-    drop = np.nonzero((bad | nonconvex_faces(Xc, Fc)) & allb)[0]
+    bad |= np.linalg.norm(face_normals(Xc, Fb, unit=False), axis=1) < small * h * h
+    drop = allb[bad | nonconvex_faces(Xc, Fb)]
     if not len(drop):
         return Vc, Fc, tri, bary, grid
     keep = drop_keeping_manifold(Fc, topo, drop, len(Vc))  # a vertex where two boundary loops would touch: kept
@@ -1333,7 +1405,7 @@ def relax_edge_lengths(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Fc: np.ndar
     D = sp.csr_matrix((np.r_[-np.ones(ne), np.ones(ne)], (rows, np.r_[E[:, 0], E[:, 1]])), shape=(ne, nv))
     w = np.where(fixed, 1e6, anchor)
     solve = factorized((D.T @ D + sp.diags(w)).tocsc())
-    FN = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    FN = cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     first = Fc[:, 0]
     C = face_corners(Fc)
 

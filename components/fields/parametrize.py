@@ -53,7 +53,7 @@ from components.core.checks import check_choice, check_mesh, check_number
 from components.core.memo import ContentCache, digest
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
-from components.core.measures import unit
+from components.core.measures import cross, unit
 from components.core.mesh import boundary_loops, edge_topology, triangulate
 from components.core.types import Curves, Mesh, Points
 from components.fields.extract import iso_segments
@@ -114,7 +114,8 @@ def check_target_fits(V: np.ndarray, T: np.ndarray, target: float, name: str = "
     ...
     components.core.errors.InputError: target_length: 5 is larger than the surface (1.41421 across): no quad fits
     """
-    diag = float(np.linalg.norm(V[T].reshape(-1, 3).max(axis=0) - V[T].reshape(-1, 3).min(axis=0)))
+    P = V[T].reshape(-1, 3)
+    diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
     if target > diag:
         raise InputError(name, f"{target:g} is larger than the surface ({diag:g} across): no quad fits")
     area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
@@ -253,7 +254,7 @@ def _topology(V: np.ndarray, T: np.ndarray) -> _Topology:
     a, b = order[pair], order[pair + 1]
     twin[a] = b
     twin[b] = a
-    N = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    N = cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     area = 0.5 * np.linalg.norm(N, axis=1)
     return _Topology(H, twin, unit(N), area, topo.E)
 
@@ -266,8 +267,8 @@ def _matchings(V, T, tp: _Topology, U, W) -> np.ndarray:
     g = tp.twin[h] // 3
     d = unit(V[tp.H[h, 1]] - V[tp.H[h, 0]])
     # unfold g's vectors into f's plane: components along the edge and along n × d
-    bf = np.cross(tp.n[f], d)
-    bg = np.cross(tp.n[g], d)
+    bf = cross(tp.n[f], d)  # np.cross's numbers, cheaper
+    bg = cross(tp.n[g], d)
 
     def carry(X):
         a = np.einsum("ij,ij->i", X, d)
@@ -421,9 +422,9 @@ def _build_cuts(V, T, tp: _Topology, match: np.ndarray, paths: list, kinds: list
     h = np.nonzero(inner)[0]
     G = sp.csr_matrix((np.ones(len(h)), (h // 3, tp.twin[h] // 3)), shape=(m, m))
     ncomp, lab = connected_components(G, directed=False)
-    comb = np.zeros(m, dtype=np.int64)
-    # match per face pair for the tree edges
-    pair_k = {}
+    # the BFS trees (one per piece): each face's parent and the matching from the parent to it
+    up = np.arange(m)  # roots are their own parents
+    k_up = np.zeros(m, dtype=np.int64)
     for root in np.unique(lab, return_index=True)[1]:
         nodes, pred = breadth_first_order(G, int(root), directed=False, return_predecessors=True)
         # matching from parent to child: look up half-edge of parent whose twin is in child
@@ -434,12 +435,16 @@ def _build_cuts(V, T, tp: _Topology, match: np.ndarray, paths: list, kinds: list
         tw = tp.twin[cand]
         hit = (tw >= 0) & (tw // 3 == child[:, None]) & inner[cand]
         j = np.argmax(hit, axis=1)
-        hk = match[cand[np.arange(len(child)), j]]
-        pair_k = hk
-        # c_child = c_parent - k, in BFS order
-        c = comb
-        for ch, pa, kk in zip(child.tolist(), par.tolist(), pair_k.tolist()):
-            c[ch] = (c[pa] - kk) % 4
+        up[child] = par
+        k_up[child] = match[cand[np.arange(len(child)), j]]
+    # c_child = c_parent - k: c = −(the sum of k from the root) mod 4, the sums by pointer doubling
+    while True:
+        k_up = k_up + k_up[up]  # the sum from up (exclusive) to the face; a root's sum is 0
+        up2 = up[up]
+        if np.array_equal(up2, up):
+            break
+        up = up2
+    comb = np.mod(-k_up, 4)
     # matchings after combing: k' = k + c_g - c_f
     hh = np.nonzero(tp.twin >= 0)[0]
     kc = np.full(3 * m, -1, dtype=np.int64)
@@ -500,7 +505,7 @@ def _gradient_operator(V: np.ndarray, T: np.ndarray, tp: _Topology, cols: np.nda
     G = np.empty((m, 3, 3))
     for i in range(3):
         e = P[:, (i + 2) % 3] - P[:, (i + 1) % 3]
-        G[:, i] = np.cross(tp.n, e) / (2.0 * tp.area[:, None])
+        G[:, i] = cross(tp.n, e) / (2.0 * tp.area[:, None])
     rows = (3 * np.arange(m)[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)  # (m, corner, xyz)
     cc = np.broadcast_to(cols[:, :, None], (m, 3, 3))
     return sp.csr_matrix((G.ravel(), (rows.ravel(), cc.ravel())), shape=(3 * m, ncols))
@@ -623,12 +628,16 @@ class Parametrization(NamedTuple):
     scale: float = 1.0
 
 
-def _parameter_tangents(V: np.ndarray, T: np.ndarray, UV: np.ndarray, eps: float = 0.0):
-    """Per face ``∂x/∂u, ∂x/∂v`` (the columns of ``[e1 e2] · [d1 d2]⁻¹``), the parameter triangle's doubled
-    signed area ``det`` and its scale ``|d1|₁ |d2|₁``; faces with ``|det| ≤ eps`` get tangents as if ``det`` were
-    1 (callers mask them)."""
-    e1 = V[T[:, 1]] - V[T[:, 0]]
-    e2 = V[T[:, 2]] - V[T[:, 0]]
+def _triangle_edges(V: np.ndarray, T: np.ndarray):
+    """``e1 = x1 − x0`` and ``e2 = x2 − x0`` of every triangle (the surface side of :func:`_parameter_tangents`)."""
+    return V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]
+
+
+def _parameter_tangents(edges, UV: np.ndarray, eps: float = 0.0):
+    """Per face ``∂x/∂u, ∂x/∂v`` (the columns of ``[e1 e2] · [d1 d2]⁻¹``, ``edges = (e1, e2)`` from
+    :func:`_triangle_edges`), the parameter triangle's doubled signed area ``det`` and its scale ``|d1|₁ |d2|₁``;
+    faces with ``|det| ≤ eps`` get tangents as if ``det`` were 1 (callers mask them)."""
+    e1, e2 = edges
     d1 = UV[:, 1] - UV[:, 0]
     d2 = UV[:, 2] - UV[:, 0]
     det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
@@ -659,14 +668,20 @@ def field_angle_error(V: np.ndarray, T: np.ndarray, UV: np.ndarray, U: np.ndarra
     (m,) float64
         Angle in radians (π/2 for a degenerate parameter triangle).
     """
-    xu, xv, det, _ = _parameter_tangents(V, T, UV, eps=1e-14)
+    return _angle_error(_triangle_edges(V, T), UV, unit(U), unit(W))
+
+
+def _angle_error(edges, UV: np.ndarray, Uu: np.ndarray, Wu: np.ndarray) -> np.ndarray:
+    """:func:`field_angle_error` from the triangles' edge vectors (:func:`_triangle_edges`) and the unit field
+    directions: what the densities of one parametrization share is computed once."""
+    xu, xv, det, _ = _parameter_tangents(edges, UV, eps=1e-14)
     ok = np.abs(det) > 1e-14
 
-    def line_angle(a, b):
-        c = np.abs(np.einsum("ij,ij->i", unit(a), unit(b)))
+    def line_angle(a, ub):
+        c = np.abs(np.einsum("ij,ij->i", unit(a), ub))
         return np.arccos(np.clip(c, 0.0, 1.0))
 
-    err = np.maximum(line_angle(xu, U), line_angle(xv, W))
+    err = np.maximum(line_angle(xu, Uu), line_angle(xv, Wu))
     return np.where(ok, err, np.pi / 2)
 
 
@@ -782,6 +797,7 @@ def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     timings["factor_solve"] = time.perf_counter() - t3
     cut_edges = fc.cut_edges
     shared = time.perf_counter() - t0
+    edges, Uu, Wu = _triangle_edges(V, T), unit(Uc), unit(Wc)  # for the angle errors
     out = []
     for density in densities:
         t4 = time.perf_counter()
@@ -799,7 +815,7 @@ def seamless_parametrizations(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
         if flipped:
             warnings.append(f"{flipped} triangles are inverted in the parametrization (the field is hard to follow "
                             "there)")
-        err = field_angle_error(V, T, UV, Uc, Wc)
+        err = _angle_error(edges, UV, Uu, Wu)  # field_angle_error(V, T, UV, Uc, Wc)
         tm["total"] = time.perf_counter() - t4 + (shared if not out else 0.0)
         log.debug("seamless_parametrization: %d faces, %d singularities, %d integer variables, %.3fs", m, len(sing),
                   len(ints), tm["total"])
@@ -890,10 +906,12 @@ def _disk_boundary_loops(V: np.ndarray, T: np.ndarray, E: np.ndarray | None = No
     if not loops:
         raise MeshError("mesh", "the surface is closed: the parametrization needs an open surface (a boundary)")
     ne = len(edge_topology(T).E if E is None else E)
-    used = np.unique(T)
-    chi = len(used) - ne + m
+    used = np.zeros(n, dtype=bool)
+    used[T.ravel()] = True
+    nused = int(np.count_nonzero(used))  # vertices of the triangles
+    chi = nused - ne + m
     ncomp = connected_components(sp.csr_matrix((np.ones(3 * m), (T.ravel(), np.roll(T, -1, 1).ravel())),
-                                               shape=(n, n)), directed=False)[0] - (n - len(used))
+                                               shape=(n, n)), directed=False)[0] - (n - nused)
     if ncomp != 1:
         raise MeshError("mesh", f"the surface has {ncomp} connected pieces; parametrize them one at a time")
     genus2 = 2 - len(loops) - chi
@@ -1080,7 +1098,7 @@ def _centering_scale(V, T, UV, target: float, area: np.ndarray, spread: float = 
     Per face the spacings are ``|∂x/∂u|`` and ``|∂x/∂v|`` (model units per unit parameter) of the affine map from
     the parameter triangle to the surface triangle; scaling the parameters by ``s`` divides them by ``s``.
     """
-    xu, xv, det, size = _parameter_tangents(V, T, UV, eps=1e-300)
+    xu, xv, det, size = _parameter_tangents(_triangle_edges(V, T), UV, eps=1e-300)
     ok = det > 1e-12 * (size + 1e-300)
     if np.count_nonzero(ok) < 3:
         return 1.0

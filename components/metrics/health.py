@@ -528,7 +528,8 @@ def _intersecting_pairs(X, F, good, tol) -> np.ndarray:
     if len(idx) < 2:
         return empty
     P, J = P[idx], J[idx]
-    faces, first, count = np.unique(J, return_index=True, return_counts=True)
+    first = np.nonzero(np.r_[True, J[1:] != J[:-1]])[0]  # np.unique(J, return_index=True, return_counts=True):
+    faces, count = J[first], np.diff(np.r_[first, len(J)])  # J ascends
     if len(faces) < 2:
         return empty
     C = X[F[faces]]  # (f, k, 3) corners (padding repeats a corner: it changes no bound)
