@@ -67,7 +67,6 @@ _OPT_ROUNDS = 3  # optimize phases (each followed by a polish) when an optimize 
 _HELD_BETA = 0.25  # restore phase: an accepted step shorter than this fraction of the feasibility step is held
 _HELD_STEPS = 3  # ... this many held steps in a row relax the closeness stiffness
 _RELAX_CLOSENESS = 1.0 / 3.0  # factor of one relaxation
-_RELAX_FLOOR = 1.0 / 100.0  # the closeness stiffness is never relaxed below this share of the given one
 
 
 @dataclass
@@ -265,7 +264,7 @@ def _advance(prob, run: Run, step: Step, f_cur: float, optimize: bool):
 
 
 def _relax_closeness(prob, run: Run) -> bool:
-    """Lower the closeness stiffness by ``_RELAX_CLOSENESS`` (not below ``_RELAX_FLOOR`` of the given one) when the
+    """Lower the closeness stiffness by ``_RELAX_CLOSENESS`` (not below ``prob.relax_floor`` of the given one) when the
     panel-health guard holds the restore phase; whether it was lowered.
 
     A stiff closeness metric leaves the planarity correction only the directions within the surface, where it
@@ -276,8 +275,8 @@ def _relax_closeness(prob, run: Run) -> bool:
     """
     if run.phase != "restore":
         return False
-    if run.alpha_full > 0.0 and prob.alpha > run.alpha_full * _RELAX_FLOOR * (1.0 + 1e-9):
-        prob.alpha = max(prob.alpha * _RELAX_CLOSENESS, run.alpha_full * _RELAX_FLOOR)
+    if run.alpha_full > 0.0 and prob.alpha > run.alpha_full * prob.relax_floor * (1.0 + 1e-9):
+        prob.alpha = max(prob.alpha * _RELAX_CLOSENESS, run.alpha_full * prob.relax_floor)
         run.relaxed_to = min(run.relaxed_to, prob.alpha / run.alpha_full)
         log.debug("planarize: the guard holds the restore phase; closeness stiffness relaxed to %.3g of the given",
                   prob.alpha / run.alpha_full)
