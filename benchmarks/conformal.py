@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from components.conical.cones import conical_check, face_offset  # noqa: E402
-from forked import peak_mb, run_forked  # noqa: E402
+from forked import best_of, peak_mb, run_forked  # noqa: E402
 from components.core.mesh import boundary_loops, quad_grid, read_mesh, triangulate  # noqa: E402
 from components.core.conformal import (  # noqa: E402
     _farthest_pair,
@@ -48,15 +48,6 @@ except ImportError:  # pragma: no cover
     igl = None
 
 SHARED = ROOT.parent / "shared" / "data" / "meshes"
-
-
-def best_of(fn, repeat=3):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def height_grid(n):

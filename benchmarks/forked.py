@@ -7,6 +7,7 @@ costs one row, not the table.
 from __future__ import annotations
 
 import multiprocessing as mp
+import time
 from typing import Any, Callable
 
 
@@ -17,6 +18,17 @@ def peak_mb() -> float:
     except ImportError:
         return float("nan")
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
+
+
+def best_of(fn: Callable, repeat: int = 3, clock: Callable = time.perf_counter) -> tuple:
+    """``(best time, last result)`` of ``repeat`` calls of ``fn()``, timed by ``clock`` (wall by default;
+    ``time.process_time`` for CPU seconds)."""
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t = clock()
+        out = fn()
+        best = min(best, clock() - t)
+    return best, out
 
 
 def counted_factorizations() -> list:

@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from fields import _mean_edge, patch  # noqa: E402
-from forked import run_forked  # noqa: E402
+from forked import best_of, run_forked  # noqa: E402
 
 
 def _capture(size: int) -> dict:
@@ -74,12 +74,7 @@ def _capture(size: int) -> dict:
 
 
 def _cpu_best(fn, repeat: int):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        c = time.process_time()
-        out = fn()
-        best = min(best, time.process_time() - c)
-    return best, out
+    return best_of(fn, repeat, clock=time.process_time)
 
 
 def _time_family(A: sp.csc_matrix, kwargs: dict, repeat: int) -> tuple:
