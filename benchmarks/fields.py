@@ -33,6 +33,10 @@ smooth non-planarity needs larger moves than the panel-health guard allows), pea
 fixes): 20k 5.7 s (field 1.9, param 0.3, extract 1.1, planarize 2.1; same 1406-face candidate, 9.0e-5, healthy),
 peak 150 MB; 200k 91.6 s wall / 62 CPU s on a loaded machine (field 29.1, param 11.1, extract 17.5 — the first
 candidate is healthy now —, planarize 31.9: healthy but not converged, 5.7e-3 at the 30 s budget), peak 750 MB.
+Session 9 (another 2-core machine, AVX-512; bit-identical field local step, extraction, planarizer health checks
+and crossing tests), session-8 code → today's in the same hour: 20k 4.9-5.0 s → 4.2-4.3 s (field 1.5, param 0.3,
+extract 0.8, planarize 1.5; same 1406-face candidate and result, 9.0e-5, healthy), peak 143 MB; 200k 60.6 s → 50.9 s
+(field 19.5, param 4.9, extract 7.2, planarize 18.3; converged, 9.4e-5, healthy, coverage 1.000), peak 771 MB.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
