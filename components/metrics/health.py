@@ -692,10 +692,11 @@ def _coverage(X, F, topo, Xr, Tr, L, A, o: _Options) -> tuple[float, int, float]
     splits = [(T, TriangleIndex(X, T, name="mesh")) for T in _splits(X, F)]
     S, W, spacing = _surface_samples(Xr, Tr, np.sqrt(A))  # sub-triangles with edges under √A: ≥ 4 per panel
     covered, beyond, far = _covered(S, splits, topo, len(X), L, o)
-    if abs(_share(W, covered) - o.min_coverage) < _REFINE_BAND:  # near the bound: finer samples decide
+    coverage = _share(W, covered)
+    if abs(coverage - o.min_coverage) < _REFINE_BAND:  # near the bound: finer samples decide
         S, W, spacing = _surface_samples(Xr, Tr, np.sqrt(A) / _REFINE)
         covered, beyond, far = _covered(S, splits, topo, len(X), L, o)
-    coverage = _share(W, covered)
+        coverage = _share(W, covered)
     missing = float(W[~covered].sum())
     if coverage < o.min_coverage:  # the report names the share beyond the boundary: the far samples' side too
         for index, T, rows in far:

@@ -247,8 +247,7 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
         return _triangles_only(V, F, prep, ref, opts, t0)
     best = None
     for lift_rows, relax_floor in _ATTEMPTS:
-        if best is not None and (best[2].converged and best[3].verdict.healthy
-                                 or time.perf_counter() - t0 >= 0.5 * opts.time_budget):
+        if best is not None and (_succeeded(best) or time.perf_counter() - t0 >= 0.5 * opts.time_budget):
             break
         att = _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows, relax_floor)
         if best is None or _better(att, best, opts.use_abs):
@@ -316,10 +315,15 @@ def _better(a, b, use_abs: bool) -> bool:
     """Whether attempt ``a`` (:func:`_attempt`) beats ``b``: converged and healthy first, then healthy, then the
     lower largest planarity (warping height with an absolute tolerance)."""
     def key(att):
-        _, _, run, m, _ = att
-        return (not (run.converged and m.verdict.healthy), not m.verdict.healthy,
-                float(m.warp.max() if use_abs else m.pl.max()))
+        m = att[3]
+        return (not _succeeded(att), not m.verdict.healthy, float(m.warp.max() if use_abs else m.pl.max()))
     return key(a) < key(b)
+
+
+def _succeeded(att) -> bool:
+    """Whether attempt ``att`` (:func:`_attempt`) reached the tolerance with healthy panels."""
+    _, _, run, m, _ = att
+    return bool(run.converged and m.verdict.healthy)
 
 
 class _Measures(NamedTuple):
