@@ -4,12 +4,12 @@ a field's cut graph, a tracer, a plane map.
 One strategy asks for the same thing again and again (every extraction and repair queries the same design surface;
 the two streamline families share one tracer; the two boundary modes of the candidate share one cut graph). A
 :class:`ContentCache` keeps the last few values keyed by a :func:`digest` of their inputs' *contents* (dtype, shape
-and bytes), so a copy of the same arrays hits and a changed array misses; it is thread-safe, bounded in entries
-and, optionally, in a weight (e.g. triangles held). A value pushed out by newer ones but still held elsewhere (a
-design surface's index kept by the object that queries it while other meshes are indexed) is found again through
-a weak reference instead of being rebuilt: it costs no memory the cache would hold. Every cache registers itself:
-:func:`clear_all` forgets them all, and the server's solver processes call it after each solve, so what a solve
-leaves behind never outlives it.
+and bytes), so a copy of the same arrays hits and a changed array misses; it is thread-safe (a value is built once
+even when two threads ask for it at the same time), bounded in entries and, optionally, in a weight (e.g. triangles
+held). A value pushed out by newer ones but still held elsewhere (a design surface's index kept by the object that
+queries it while other meshes are indexed) is found again through a weak reference instead of being rebuilt: it
+costs no memory the cache would hold. Every cache registers itself: :func:`clear_all` forgets them all, and the
+server's solver processes call it after each solve, so what a solve leaves behind never outlives it.
 
 Example
 -------
@@ -67,22 +67,35 @@ class ContentCache:
         self._items: OrderedDict = OrderedDict()
         self._evicted: weakref.WeakValueDictionary = weakref.WeakValueDictionary()  # evicted, alive elsewhere
         self._lock = threading.Lock()
+        self._building: dict = {}  # key -> Event set when the thread building its value is done
         _ALL.add(self)
 
     def get(self, key: Hashable, build: Callable[[], Any]) -> Any:
         """The value kept under ``key`` (or evicted but still alive elsewhere), else ``build()`` (outside the lock),
-        kept and returned."""
-        with self._lock:
-            if key in self._items:
-                self._items.move_to_end(key)
-                return self._items[key]
-            value = self._evicted.pop(key, None)
-            if value is not None:
+        kept and returned. While one thread builds a key's value, another asking for the same key waits for it
+        instead of building it too (if the build fails, the waiting thread builds it itself)."""
+        while True:
+            with self._lock:
+                if key in self._items:
+                    self._items.move_to_end(key)
+                    return self._items[key]
+                value = self._evicted.pop(key, None)
+                if value is not None:
+                    self._keep(key, value)
+                    return value
+                pending = self._building.get(key)
+                if pending is None:
+                    done = self._building[key] = threading.Event()
+                    break
+            pending.wait()
+        try:
+            value = build()
+            with self._lock:
                 self._keep(key, value)
-                return value
-        value = build()
-        with self._lock:
-            self._keep(key, value)
+        finally:
+            with self._lock:
+                del self._building[key]
+            done.set()
         return value
 
     def _keep(self, key: Hashable, value: Any) -> None:

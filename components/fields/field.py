@@ -54,6 +54,7 @@ from components.core.memo import ContentCache, digest
 from components.core.checks import check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
 from components.core.mesh import triangulate
+from components.core.parallel import concurrently, for_each
 from components.core.types import Lines, Mesh, Numbers, Points, Vectors
 
 log = logging.getLogger(__name__)
@@ -476,14 +477,20 @@ def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, con
                                                    cons, constraint_weight)
     tX = np.divide(accX, wX, out=np.zeros(m, dtype=complex), where=wX > 0)
     LX = _connection_laplacian(dg, m, 4)
-    X = _solve_coefficient(LX, wX, tX, pinX)
-    if normalize_iterations:
-        X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
-    if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
-        tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
-        Y = _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
-    else:
-        Y = np.zeros(m, dtype=complex)
+
+    def solve_x():
+        X = _solve_coefficient(LX, wX, tX, pinX)
+        if normalize_iterations:
+            X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
+        return X
+
+    def solve_y():
+        if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
+            tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
+            return _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
+        return np.zeros(m, dtype=complex)
+
+    X, Y = concurrently(solve_x, solve_y)  # independent systems
     u, v = _roots(X, Y)
     fld = _finish(V, T, u, v, fr, dg, cv, aniso, diagnostics)
     if diagnostics:
@@ -775,10 +782,13 @@ def _closest_conjugate(u, v, ls: _LocalStep, start=None):
     swap = np.empty(m, dtype=bool)
     if start is not None:
         start = np.round(start / _ROUND) * _ROUND
-    for lo in range(0, m, _CHUNK):
+
+    def search(lo):  # the blocks are independent: shared out among the threads
         hi = min(m, lo + _CHUNK)
         blk = _block(ls, lo, hi, A2[lo:hi], B2[lo:hi])
         best[lo:hi], swap[lo:hi] = _search(blk, zu[lo:hi], zv[lo:hi], None if start is None else start[lo:hi])
+
+    for_each(search, range(0, m, _CHUNK))
     bcos, bsin = np.cos(best), np.sin(best)  # the pair from the optimal angle itself, not from a rotated sample
     ua = p * np.exp(1j * best)
     x, y = -ls.k2 * bsin, ls.k1 * bcos
@@ -1050,8 +1060,8 @@ def _local_global(pb: _ConjugateProblem, u, v, step, wc: np.ndarray, active: np.
     ``step`` is the local step at ``u, v`` (pairs and angles, as :func:`_closest_conjugate` returns them) when known,
     None for a cold start. Returns the final ``u, v`` and the local step at them (the first of a next run).
     """
-    luX = _factor(pb.LX + sp.diags((wc + pb.w0).astype(complex)))
-    luY = _factor(pb.LY + sp.diags((wc + pb.w0).astype(complex)))
+    d = sp.diags((wc + pb.w0).astype(complex))
+    luX, luY = concurrently(lambda: _factor(pb.LX + d), lambda: _factor(pb.LY + d))
     bX, bY = pb.w0 * pb.X0, pb.w0 * pb.Y0  # the start field's pull, the same in every solve
     every = bool(active.all())
     for _ in range(count):
@@ -1062,8 +1072,7 @@ def _local_global(pb: _ConjugateProblem, u, v, step, wc: np.ndarray, active: np.
         if pb.fixed is not None:
             pu[pb.fixed[0]], pv[pb.fixed[0]] = pb.fixed[1], pb.fixed[2]
         Xp, Yp = _poly(pu, pv)
-        X = luX.solve(wc * Xp + bX)
-        Y = luY.solve(wc * Yp + bY)
+        X, Y = concurrently(lambda: luX.solve(wc * Xp + bX), lambda: luY.solve(wc * Yp + bY))
         u, v = _roots(X, Y)
         step = _closest_conjugate(u, v, pb.ls, start=a)
     return u, v, step

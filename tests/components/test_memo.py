@@ -60,6 +60,58 @@ def test_threads_share_one_cache_without_errors():
     assert set(results) == {0, 10, 20, 30, 40}
 
 
+def test_a_value_asked_for_by_two_threads_at_once_is_built_once():
+    c = ContentCache("test once", entries=4)
+    started, release, built = threading.Event(), threading.Event(), []
+
+    def slow():
+        built.append(1)
+        started.set()
+        release.wait(10)
+        return "value"
+
+    out = []
+    first = threading.Thread(target=lambda: out.append(c.get("k", slow)))
+    first.start()
+    assert started.wait(10)
+    second = threading.Thread(target=lambda: out.append(c.get("k", slow)))
+    second.start()
+    second.join(0.2)
+    assert second.is_alive()  # waits for the first thread's build instead of building
+    release.set()
+    first.join(10)
+    second.join(10)
+    assert out == ["value", "value"] and built == [1]
+
+
+def test_a_failed_build_lets_a_waiting_thread_build_the_value():
+    c = ContentCache("test failed build", entries=4)
+    started, release = threading.Event(), threading.Event()
+
+    def failing():
+        started.set()
+        release.wait(10)
+        raise RuntimeError("no")
+
+    errors, out = [], []
+
+    def first():
+        try:
+            c.get("k", failing)
+        except RuntimeError as exc:
+            errors.append(str(exc))
+
+    t1 = threading.Thread(target=first)
+    t1.start()
+    assert started.wait(10)
+    t2 = threading.Thread(target=lambda: out.append(c.get("k", lambda: "built by the second")))
+    t2.start()
+    release.set()
+    t1.join(10)
+    t2.join(10)
+    assert errors == ["no"] and out == ["built by the second"] and c.get("k", lambda: None) == "built by the second"
+
+
 def test_clear_all_forgets_the_stage_caches():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]], float)
     T = np.array([[0, 1, 2], [1, 3, 2]])

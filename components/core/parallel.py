@@ -1,0 +1,118 @@
+"""Independent steps on the machine's cores: a few threads for work that releases the GIL.
+
+SuperLU's factorizations and solves and numpy's array operations on large arrays release the GIL, so two of them
+run at once on two cores. :func:`concurrently` runs a few independent calls (two factorizations, two solves),
+:func:`for_each` a function over independent items (blocks of faces), both returning what a plain sequential run
+returns, bit for bit: each call computes exactly what it would alone, only the order in time changes. Nothing here
+may be used for calls that share mutable state.
+
+The thread count is :data:`ENV_THREADS` (``GHSERVER_THREADS``) when set (``1`` = everything in the calling
+thread), else the cores this process may use, at most :data:`MAX_THREADS`. The pool is made on first use in each
+process (solver processes are started fresh) and a call made from inside a pool thread runs sequentially, so
+nested uses never wait for each other.
+
+Example
+-------
+>>> concurrently(lambda: 1 + 1, lambda: 2 * 3)
+[2, 6]
+>>> out = [0] * 4
+>>> for_each(lambda i: out.__setitem__(i, i * i), range(4))
+>>> out
+[0, 1, 4, 9]
+"""
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, Iterable
+
+__all__ = ["ENV_THREADS", "MAX_THREADS", "thread_count", "concurrently", "for_each"]
+
+ENV_THREADS = "GHSERVER_THREADS"
+MAX_THREADS = 4  # beyond this the memory bandwidth, not the cores, bounds these steps
+_lock = threading.Lock()
+_pool: ThreadPoolExecutor | None = None
+_pool_key: tuple | None = None  # (pid, size) the pool was made for
+_local = threading.local()
+
+
+def thread_count() -> int:
+    """Threads the steps may use: ``GHSERVER_THREADS`` when set to a positive integer, else this process's cores
+    (at most :data:`MAX_THREADS`)."""
+    env = os.environ.get(ENV_THREADS, "").strip()
+    if env:
+        try:
+            n = int(env)
+        except ValueError:
+            n = 0
+        if n >= 1:
+            return n
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # Windows, macOS
+        cores = os.cpu_count() or 1
+    return max(1, min(MAX_THREADS, cores))
+
+
+def _executor() -> ThreadPoolExecutor | None:
+    """The process's pool of :func:`thread_count` − 1 helper threads (the caller's thread is the last one); None
+    inside a helper thread or with one thread."""
+    global _pool, _pool_key
+    n = thread_count()
+    if n <= 1 or getattr(_local, "helper", False):
+        return None
+    key = (os.getpid(), n)
+    with _lock:
+        if _pool_key != key:  # first use, or a forked child, or another thread count
+            _pool = ThreadPoolExecutor(max_workers=n - 1, thread_name_prefix="ghserver-step",
+                                       initializer=_mark_helper)
+            _pool_key = key
+        return _pool
+
+
+def _mark_helper():
+    _local.helper = True
+
+
+def concurrently(*calls: Callable[[], object]) -> list:
+    """The results of the zero-argument ``calls``, in order; the first runs in the calling thread, the others on the
+    pool at the same time. The first exception raised (in call order) is raised after all calls have ended."""
+    pool = _executor() if len(calls) > 1 else None
+    if pool is None:
+        return [c() for c in calls]
+    futures = [pool.submit(c) for c in calls[1:]]
+    try:
+        first = calls[0]()
+    finally:
+        rest = [f.exception() for f in futures]  # wait for every call before anything is raised
+    for exc in rest:
+        if exc is not None:
+            raise exc
+    return [first] + [f.result() for f in futures]
+
+
+def for_each(fn: Callable[[object], None], items: Iterable) -> None:
+    """``fn(item)`` for every item, the items shared out among the threads (each takes the next free one). ``fn``
+    must only write what belongs to its item."""
+    items = list(items)
+    n = min(thread_count(), len(items))
+    if n <= 1 or _executor() is None:
+        for it in items:
+            fn(it)
+        return
+    lock = threading.Lock()
+    queue = iter(items)
+
+    def worker():
+        while True:
+            with lock:
+                it = next(queue, _DONE)
+            if it is _DONE:
+                return
+            fn(it)
+
+    concurrently(*([worker] * n))
+
+
+_DONE = object()

@@ -1,0 +1,125 @@
+"""components.core.parallel: independent steps on two threads give exactly the sequential results; the field and
+the candidate are bit for bit the same with one thread and with two."""
+import hashlib
+import threading
+
+import numpy as np
+import pytest
+
+from components.core import parallel
+from components.core.mesh import quad_grid, triangulate
+from components.core.parallel import concurrently, for_each, thread_count
+from components.fields.candidate import candidate_mesh
+from components.fields.parametrize import direction_field
+
+
+@pytest.fixture
+def two_threads(monkeypatch):
+    monkeypatch.setenv(parallel.ENV_THREADS, "2")
+
+
+def test_thread_count_follows_the_environment(monkeypatch):
+    monkeypatch.setenv(parallel.ENV_THREADS, "3")
+    assert thread_count() == 3
+    monkeypatch.setenv(parallel.ENV_THREADS, "1")
+    assert thread_count() == 1
+    for bad in ("0", "-2", "two", ""):
+        monkeypatch.setenv(parallel.ENV_THREADS, bad)
+        assert 1 <= thread_count() <= parallel.MAX_THREADS  # ignored: the cores
+
+
+def test_calls_run_at_the_same_time_and_results_keep_their_order(two_threads):
+    both = threading.Barrier(2, timeout=10)  # broken (an error) unless the two calls run at the same time
+
+    def meet(x):
+        both.wait()
+        return x
+
+    assert concurrently(lambda: meet("a"), lambda: meet("b")) == ["a", "b"]
+
+
+def test_one_thread_runs_everything_in_the_calling_thread(monkeypatch):
+    monkeypatch.setenv(parallel.ENV_THREADS, "1")
+    me = threading.get_ident()
+    assert concurrently(threading.get_ident, threading.get_ident) == [me, me]
+    seen = []
+    for_each(lambda i: seen.append((i, threading.get_ident())), range(5))
+    assert seen == [(i, me) for i in range(5)]
+
+
+def test_the_first_error_is_raised_after_every_call_has_ended(two_threads):
+    ended = threading.Event()
+
+    def slow_ok():
+        ended.wait(0.2)
+        ended.set()
+        return 1
+
+    def fail(msg):
+        raise ValueError(msg)
+
+    with pytest.raises(ValueError, match="first"):
+        concurrently(lambda: fail("first"), slow_ok, lambda: fail("third"))
+    assert ended.is_set()
+    with pytest.raises(ValueError, match="second"):
+        concurrently(lambda: 0, lambda: fail("second"))
+
+
+def test_nested_use_does_not_wait_for_itself(two_threads):
+    inner = concurrently(lambda: concurrently(lambda: 1, lambda: 2), lambda: concurrently(lambda: 3, lambda: 4))
+    assert inner == [[1, 2], [3, 4]]
+
+
+def test_for_each_visits_every_item_once(two_threads):
+    out = np.zeros(1000, dtype=np.int64)
+
+    def fill(i):
+        out[i * 10:(i + 1) * 10] += i
+
+    for_each(fill, range(100))
+    assert np.array_equal(out, np.repeat(np.arange(100), 10))
+
+
+def _wavy(n):
+    V, Q = quad_grid(n, n, 6.0, 6.0, height=lambda x, y: 0.4 * np.sin(0.8 * x) * np.cos(0.6 * y) + 0.05 * x * y)
+    return V, triangulate(Q)[0]
+
+
+def _sha(*arrays):
+    h = hashlib.sha1()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def test_the_field_is_bit_identical_on_one_and_two_threads(monkeypatch):
+    V, T = _wavy(40)  # 3,200 triangles: the local step runs on one block; the solves and factorizations in pairs
+    out = {}
+    for n in ("1", "2"):
+        monkeypatch.setenv(parallel.ENV_THREADS, n)
+        out[n] = _sha(*direction_field(V, T, field="conjugate"))
+    assert out["1"] == out["2"]
+
+
+def test_the_local_step_blocks_are_bit_identical_on_one_and_two_threads(monkeypatch):
+    from components.fields import field as F
+
+    V, T = _wavy(30)
+    monkeypatch.setattr(F, "_CHUNK", 97)  # many blocks of odd size, shared out among the threads
+    out = {}
+    for n in ("1", "2"):
+        monkeypatch.setenv(parallel.ENV_THREADS, n)
+        s = F.smooth_frame_field(V, T, diagnostics=False)
+        c = F.conjugate_frame_field(V, T, s.U, s.W, iterations=5, diagnostics=False)
+        out[n] = _sha(c.U, c.W)
+    assert out["1"] == out["2"]
+
+
+def test_the_candidate_is_bit_identical_on_one_and_two_threads(monkeypatch):
+    V, T = _wavy(30)
+    out = {}
+    for n in ("1", "2"):
+        monkeypatch.setenv(parallel.ENV_THREADS, n)
+        c = candidate_mesh((V, T), 0.6, boundary="auto", repair=True)
+        out[n] = (_sha(c.V, c.F), c.quads, round(c.timings["parametrize"] + c.timings["extract"], 6) > 0)
+    assert out["1"] == out["2"]
