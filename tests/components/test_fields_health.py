@@ -238,7 +238,7 @@ def test_strategy_does_not_depend_on_units():
     V, T = surface("wave")
     got = {}
     for label, scale, offset in (("x1", 1.0, 0.0),) + UNITS:
-        res = pq_from_conjugate_field((V * scale + offset, T), size("wave") * scale, time_budget=10.0)
+        res = pq_from_conjugate_field((V * scale + offset, T), size("wave") * scale)  # the default budget
         X = (res.planarized[0] - offset) / scale
         got[label] = (len(res.planarized[1]), max(float(quad_planarity(X, res.planarized[1]).max()), 1e-6))
     assert len({n for n, _ in got.values()}) == 1, got
