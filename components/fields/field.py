@@ -262,20 +262,28 @@ def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, gu
     return x
 
 
-def _spread_singularities(L, w: np.ndarray, t: np.ndarray, pinned, X: np.ndarray, area: np.ndarray, iterations: int,
-                          core: float = 3.0) -> np.ndarray:
-    """Normalize-and-diffuse iterations on a coefficient field ``X`` (one factorization for all).
+def _spread_solver(L, w: np.ndarray, pinned, area: np.ndarray, core: float = 3.0):
+    """The factored system of :func:`_spread_singularities` and its ``μ`` (it does not depend on the field, so it
+    can be factored while the field is solved): ``(solve, μ)``, pinned entries kept at their values."""
+    eps = core * float(np.sqrt(2.0 * area.mean()))
+    mu = area / (eps * eps)
+    free = np.ones(L.shape[0], dtype=bool)
+    c = np.zeros(L.shape[0], dtype=complex)
+    if pinned is not None and len(pinned[0]):
+        free[pinned[0]] = False
+        c[pinned[0]] = pinned[1]
+    return _pinned_solver((L + sp.diags((w + mu).astype(complex))).tocsr(), free, c), mu
+
+
+def _spread_singularities(w: np.ndarray, t: np.ndarray, X: np.ndarray, iterations: int, spread) -> np.ndarray:
+    """Normalize-and-diffuse iterations on a coefficient field ``X`` (one factorization for all: ``spread`` from
+    :func:`_spread_solver`; ``X`` holds the pinned values there).
 
     Each step minimizes ``Xᴴ L X + Σ w |X − t|² + Σ μ |X − X̂|²`` with ``X̂ = X / |X|`` the normalized previous
     field and ``μ_f = A_f / ε²``, ``ε`` = ``core`` mean triangle sizes: the Ginzburg–Landau core radius, so the
     magnitude may only vanish within about ``ε`` of a singularity.
     """
-    eps = core * float(np.sqrt(2.0 * area.mean()))
-    mu = area / (eps * eps)
-    free = np.ones(len(X), dtype=bool)
-    if pinned is not None and len(pinned[0]):
-        free[pinned[0]] = False
-    solve = _pinned_solver((L + sp.diags((w + mu).astype(complex))).tocsr(), free, X)
+    solve, mu = spread
     wt = w * t
     for _ in range(iterations):
         a = np.abs(X)
@@ -478,19 +486,18 @@ def smooth_frame_field(V: np.ndarray, T: np.ndarray, alignment: float = 0.1, con
     tX = np.divide(accX, wX, out=np.zeros(m, dtype=complex), where=wX > 0)
     LX = _connection_laplacian(dg, m, 4)
 
-    def solve_x():
-        X = _solve_coefficient(LX, wX, tX, pinX)
-        if normalize_iterations:
-            X = _spread_singularities(LX, wX, tX, pinX, X, fr.area, normalize_iterations)
-        return X
-
     def solve_y():
         if np.any(accY != 0) or (pinY is not None and np.any(pinY[1] != 0)):
             tY = np.divide(accY, wY, out=np.zeros(m, dtype=complex), where=wY > 0)
             return _solve_coefficient(_connection_laplacian(dg, m, 2), wY, tY, pinY)
         return np.zeros(m, dtype=complex)
 
-    X, Y = concurrently(solve_x, solve_y)  # independent systems
+    # three independent systems: X, the spreading of its singularities (factored before X is known) and Y
+    X, spread, Y = concurrently(lambda: _solve_coefficient(LX, wX, tX, pinX),
+                                lambda: _spread_solver(LX, wX, pinX, fr.area) if normalize_iterations else None,
+                                solve_y)
+    if normalize_iterations:
+        X = _spread_singularities(wX, tX, X, normalize_iterations, spread)
     u, v = _roots(X, Y)
     fld = _finish(V, T, u, v, fr, dg, cv, aniso, diagnostics)
     if diagnostics:
