@@ -23,7 +23,10 @@ When the panel-health guard holds the restore phase (accepted steps under a quar
 no healthy step at all), the closeness stiffness is relaxed (÷3 at a time, to 1/100 of the given one), then, where
 the caller allows it (``relaxed_guard``), the guard's share of the input's own values: a stiff closeness metric
 leaves the planarity correction only the directions within the surface, where it shears the net into the guard.
-The optimize phase runs at the full stiffness again and pulls the planar mesh back toward the surface; an optimize
+Held at that floor, a step that would move a few vertices far (their linearized rows nearly contradict each
+other) first re-solves with their guard rows released (:mod:`components.planarize.step`): on the 200k-triangle
+benchmark patch, seed 1, the restore phase crawled at β 0.001-0.04 for 100 iterations (1.8e-3) and now converges in
+62. The optimize phase runs at the full stiffness again and pulls the planar mesh back toward the surface; an optimize
 step blocked by the planarity band is followed by a polish and another optimize phase (up to ``_OPT_ROUNDS``).
 
 Example
@@ -182,6 +185,8 @@ def iterate(prob, guard, t0: float) -> Run:
         soft = run.soft_cache[1] if run.soft_cache is not None and run.soft_cache[0] is X else soft_terms(prob, X)
         run.soft_cache = None
         optimize = run.phase == "optimize"
+        # the restore phase held at its closeness floor: the guard rows of far-moving vertices are released
+        prob.release_far = run.phase == "restore" and run.held >= 1 and not _can_relax_closeness(prob, run)
         step = solve_step(prob, run.guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize)
         if step.singular:
             run.stop_reason = "the linear system is singular (coincident vertices or collapsed faces in the mesh)"
@@ -275,7 +280,7 @@ def _relax_closeness(prob, run: Run) -> bool:
     """
     if run.phase != "restore":
         return False
-    if run.alpha_full > 0.0 and prob.alpha > run.alpha_full * prob.relax_floor * (1.0 + 1e-9):
+    if _can_relax_closeness(prob, run):
         prob.alpha = max(prob.alpha * _RELAX_CLOSENESS, run.alpha_full * prob.relax_floor)
         run.relaxed_to = min(run.relaxed_to, prob.alpha / run.alpha_full)
         log.debug("planarize: the guard holds the restore phase; closeness stiffness relaxed to %.3g of the given",
@@ -293,6 +298,11 @@ def _relax_closeness(prob, run: Run) -> bool:
     run.guard_reset = False
     run.soft_cache = None
     return True
+
+
+def _can_relax_closeness(prob, run: Run) -> bool:
+    """Whether the closeness stiffness is still above the share the restore phase may relax it to."""
+    return run.alpha_full > 0.0 and prob.alpha > run.alpha_full * prob.relax_floor * (1.0 + 1e-9)
 
 
 def _restore_closeness(prob, run: Run):

@@ -12,6 +12,15 @@ within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corne
 toward their bounds and solves again (later in the iteration: takes a shorter healthy step first); a trial that
 only crosses faces is shortened.
 
+Far moves: where the linearized planarity and guard rows of a few vertices nearly contradict each other, the
+minimum-norm step moves those vertices tens of edges (up to 150 on the 200k-triangle benchmark patch, seed 1, where
+the 99th percentile of the moves was under one edge), and the step, scaled so that no vertex moves more than one
+edge, crawls everywhere (β 0.001-0.04: 100 iterations to 1.8e-3). When the caller asks for it
+(``prob.release_far``: the restore phase held at its closeness floor, see :mod:`components.planarize.phases`),
+the guard rows of the vertices moving more than ``_FAR`` × the 99th percentile and more than one edge are released
+(once per iteration, at its first solve that moves vertices that far) and the system solved again; the trials stay
+health-checked.
+
 An accepted trial still above the tolerance gets up to ``_CHORDS`` chord corrections: the feasibility step of its
 residual solved with the same factorization (one back-substitution each, no new factor), kept while healthy and
 lowering the planarity score (and, in the optimize phase, keeping the soft objective under the current one; not in
@@ -56,6 +65,7 @@ _RESOLVE_FIRST = 2  # attempts that solve again at once when a trial is unhealth
 _RELEASES = 3  # re-solves per iteration after releasing guard rows that hold their item down
 _BACKTRACKS = 10  # step halvings per solve
 _MIN_T = 1.0 / 64  # optimize phase: the smallest fraction of the optimality step tried
+_FAR = 10.0  # a vertex moving this many times the 99th percentile of the moves (and over _TRUST) moves far
 _CHORDS = 2  # chord corrections (same factorization) of an accepted step still above the tolerance
 
 
@@ -141,6 +151,7 @@ def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False) -> Step
     guard_sel = watched_rows(guard, cur.values, sticky)
     accepted, fact, beta, d, f_new, failed = None, None, 1.0, None, None, ()
     attempt = releases = 0
+    far_checked = not prob.release_far
     while attempt < _GUARD_ATTEMPTS:
         sel = np.nonzero(guard_sel)[0]
         d = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize)
@@ -149,6 +160,14 @@ def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False) -> Step
         fact = d.fact
         if not (np.all(np.isfinite(d.df)) and np.all(np.isfinite(d.do))):
             break
+        if not far_checked and len(sel):
+            far = _far_vertices(d.df)
+            far_checked = len(far) > 0  # once per iteration, at the first solve that moves vertices far
+            held = _rows_at(fact, far)
+            if len(held):
+                guard_sel[sel[held]] = False
+                sticky[sel[held]] = False
+                continue
         if len(sel) and releases < _RELEASES:
             # the guard rows are inequalities: a row whose multiplier pushes its item down is not binding
             # (a row lifting its item to the target is kept: released, the item was pushed under its bound at
@@ -167,6 +186,26 @@ def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False) -> Step
         if accepted is not None or not resolve:
             break
     return Step(accepted, False, fact, guard_sel, t, beta, d.df, d.do, f_new, failed)
+
+
+def _far_vertices(df: np.ndarray) -> np.ndarray:
+    """The vertices the step ``df`` (n, 3) moves more than ``_FAR`` × the 99th percentile of the moves and more
+    than ``_TRUST`` mean edges."""
+    move = np.linalg.norm(df, axis=1)
+    if not len(move):
+        return np.zeros(0, dtype=np.int64)
+    return np.flatnonzero((move > _FAR * float(np.percentile(move, 99))) & (move > _TRUST))
+
+
+def _rows_at(fact: Factorization, vertices: np.ndarray) -> np.ndarray:
+    """Indices (among the guard rows of ``fact``) of the guard rows that involve any of ``vertices``."""
+    if not len(vertices):
+        return np.zeros(0, dtype=np.int64)
+    Jg = fact.J[fact.n_hard:].tocsr()
+    at = np.zeros(Jg.shape[1], dtype=bool)
+    at[(3 * vertices[:, None] + np.arange(3)).ravel()] = True
+    rows = np.repeat(np.arange(Jg.shape[0]), np.diff(Jg.indptr))
+    return np.unique(rows[at[Jg.indices]])
 
 
 def _line_search(prob, guard, cur, d, t, optimize, f_cur, guard_sel, sticky, attempt):

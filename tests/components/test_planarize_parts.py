@@ -215,3 +215,54 @@ def test_einsum_sum3_sums_the_three_products_to_round_off():
         got = einsum_sum3(*(a * b).T)
         scale = np.abs(a * b).sum(axis=1)
         assert np.all(np.abs(got - exact) <= 4 * np.finfo(float).eps * scale)
+
+
+# ----------------------------------------------------------------------------------------------- far moves
+
+
+def test_far_vertices_are_the_outliers_of_the_step_over_one_edge():
+    from components.planarize.step import _far_vertices
+
+    df = np.full((200, 3), 0.01)
+    df[7] = [3.0, 0.0, 0.0]  # 300 × the others, over one edge: far
+    df[9] = [0.0, 0.9, 0.0]  # an outlier, but under one edge: kept
+    assert _far_vertices(df).tolist() == [7]
+    df[:20] = 0.5  # the 99th percentile is now 0.5: 3 edges is only 6 × it
+    assert _far_vertices(df).tolist() == []
+    assert _far_vertices(np.zeros((0, 3))).tolist() == []
+
+
+def test_far_moving_vertices_lose_their_guard_rows_once(monkeypatch):
+    """With ``release_far`` the first solve whose step moves a vertex far is repeated without the guard rows that
+    involve that vertex; the other guard rows stay."""
+    import components.planarize.step as step_mod
+
+    V, F = _grid(12, bump=0.01)  # 169 vertices: one far vertex is above the 99th percentile
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    v = 84  # the middle vertex
+    c = len(prob.corners.v)
+    sticky = np.zeros(guard.n_items, bool)
+    sticky[np.flatnonzero(prob.corners.v == v)] = True  # its corners' sharpness rows
+    sticky[np.flatnonzero(prob.corners.v == 0)] = True  # and a far corner's
+    real, calls = step_mod._directions, []
+
+    def far_first(prob, guard, X, sel, *args):
+        d = real(prob, guard, X, sel, *args)
+        calls.append(np.array(sel))
+        if len(calls) == 1:
+            df = np.full_like(d.df, 0.01)
+            df[v] = [30.0, 0.0, 0.0]
+            d = d._replace(df=df, lam_f=np.abs(d.lam_f) + 1.0)  # no row is loose: only the far move releases
+        return d
+
+    monkeypatch.setattr(step_mod, "_directions", far_first)
+    monkeypatch.setattr(step_mod, "watched_rows", lambda guard, values, sticky: sticky.copy())  # rows = the kept ones
+    prob.release_far = True
+    solve_step(prob, guard, cur, soft_terms(prob, cur.X), sticky, 0.0)
+    first, second = calls[0], calls[1]
+    corners = first[first < c]
+    at_v = corners[prob.corners.v[corners] == v]
+    assert len(at_v) == 4 and set(second) == set(first) - set(at_v)
+    assert not sticky[at_v].any() and sticky[np.flatnonzero(prob.corners.v == 0)].all()
+    assert all(set(at_v).isdisjoint(s) for s in calls[1:])
