@@ -37,6 +37,11 @@ Session 9 (another 2-core machine, AVX-512; bit-identical field local step, extr
 and crossing tests), session-8 code → today's in the same hour: 20k 4.9-5.0 s → 4.2-4.3 s (field 1.5, param 0.3,
 extract 0.8, planarize 1.5; same 1406-face candidate and result, 9.0e-5, healthy), peak 143 MB; 200k 60.6 s → 50.9 s
 (field 19.5, param 4.9, extract 7.2, planarize 18.3; converged, 9.4e-5, healthy, coverage 1.000), peak 771 MB.
+Session 10 (same machine; independent steps on two threads, components.core.parallel, bit-identical to one thread;
+the planarizer's release of far-moving vertices): 20k 4.4 s → 3.8 s (field 1.2, param 0.2, extract 0.7, planarize
+1.5; same 1406-face result), peak 210 MB; 200k 50.9 s → 43.2 s (field 14.9, param 3.6, extract 5.8, planarize 17.9;
+converged 9.0e-5, healthy, coverage 1.000), peak 1.5 GB: the candidate's two boundary modes are parametrized and
+extracted at the same time (771 MB with GHSERVER_THREADS=1).
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
