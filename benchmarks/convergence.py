@@ -38,8 +38,8 @@ Session 10 (same machine), ``--saved``: releasing the guard rows of far-moving v
 ``_FAR``) converges 24 of 24 (CPU 40.8 s in all, was 22 of 24 in 69 s) and 14 of 16 (57.2 s; was 15 of 16 in 58.5
 s: 20k seed 6 +5e6 now stops with "no step lowers the planarity", as seed 6 ×1 did before). The 200k patch: seed 0
 ×1 and +5e6 converge with and without it, seed 1 ×1 only with it (before: 3.0e-3 at the 30 s budget, 1.8e-3 with
-no budget), seed 0 ×1000 only without it (with it: stalled at 2.2e-3, a vertex the step moves far without guard
-rows of its own). Which case converges still flips with round-off; the release makes the crawl (steps of 0.1 % of
+no budget), seed 0 ×1000 only without it (with it: stalled at 2.2e-3, ten steps of 2e-4 of Gauss-Newton's in a
+row). Which case converges still flips with round-off; the release makes the crawl (steps of 0.1 % of
 Gauss-Newton's for tens of iterations) rarer, not impossible.
 """
 from __future__ import annotations
