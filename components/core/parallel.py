@@ -9,7 +9,8 @@ may be used for calls that share mutable state.
 The thread count is :data:`ENV_THREADS` (``GHSERVER_THREADS``) when set (``1`` = everything in the calling
 thread), else the cores this process may use, at most :data:`MAX_THREADS`. The pool is made on first use in each
 process (solver processes are started fresh) and a call made from inside a pool thread runs sequentially, so
-nested uses never wait for each other.
+nested uses never wait for each other. Where no thread can be started (a process near its address-space cap) the
+calls run in the calling thread.
 
 Example
 -------
@@ -81,15 +82,21 @@ def concurrently(*calls: Callable[[], object]) -> list:
     pool = _executor() if len(calls) > 1 else None
     if pool is None:
         return [c() for c in calls]
-    futures = [pool.submit(c) for c in calls[1:]]
+    futures = []
+    for c in calls[1:]:
+        try:
+            futures.append(pool.submit(c))
+        except RuntimeError:  # no thread could be started (e.g. a solver process's address-space cap): the rest
+            break  # run here, after the first
     try:
         first = calls[0]()
+        here = [c() for c in calls[1 + len(futures):]]
     finally:
         rest = [f.exception() for f in futures]  # wait for every call before anything is raised
     for exc in rest:
         if exc is not None:
             raise exc
-    return [first] + [f.result() for f in futures]
+    return [first] + [f.result() for f in futures] + here
 
 
 def for_each(fn: Callable[[object], None], items: Iterable) -> None:

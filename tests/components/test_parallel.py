@@ -123,3 +123,14 @@ def test_the_candidate_is_bit_identical_on_one_and_two_threads(monkeypatch):
         c = candidate_mesh((V, T), 0.6, boundary="auto", repair=True)
         out[n] = (_sha(c.V, c.F), c.quads, round(c.timings["parametrize"] + c.timings["extract"], 6) > 0)
     assert out["1"] == out["2"]
+
+
+def test_calls_run_here_when_no_thread_can_be_started(two_threads, monkeypatch):
+    pool = parallel._executor()
+
+    def refuse(*args, **kwargs):
+        raise RuntimeError("can't start new thread")
+
+    monkeypatch.setattr(pool, "submit", refuse)
+    me = threading.get_ident()
+    assert concurrently(lambda: 1, threading.get_ident, lambda: 3) == [1, me, 3]
