@@ -78,7 +78,9 @@ def _mark_helper():
 
 def concurrently(*calls: Callable[[], object]) -> list:
     """The results of the zero-argument ``calls``, in order; the first runs in the calling thread, the others on the
-    pool at the same time. The first exception raised (in call order) is raised after all calls have ended."""
+    pool at the same time. A call that runs out of memory is run again alone once the others have ended (together
+    they may need more than a capped process has); the first other exception (in call order) is raised after all
+    calls have ended."""
     pool = _executor() if len(calls) > 1 else None
     if pool is None:
         return [c() for c in calls]
@@ -88,20 +90,30 @@ def concurrently(*calls: Callable[[], object]) -> list:
             futures.append(pool.submit(c))
         except RuntimeError:  # no thread could be started (e.g. a solver process's address-space cap): the rest
             break  # run here, after the first
+    out, errors = [None] * len(calls), [None] * len(calls)
     try:
-        first = calls[0]()
-        here = [c() for c in calls[1 + len(futures):]]
+        for i in [0] + list(range(1 + len(futures), len(calls))):
+            try:
+                out[i] = calls[i]()
+            except MemoryError as exc:
+                errors[i] = exc
     finally:
-        rest = [f.exception() for f in futures]  # wait for every call before anything is raised
-    for exc in rest:
+        for i, f in enumerate(futures, start=1):  # wait for every call before anything is raised
+            errors[i] = f.exception()
+            if errors[i] is None:
+                out[i] = f.result()
+    for i, exc in enumerate(errors):
+        if isinstance(exc, MemoryError):  # too much at once (a capped solver process): again, alone, now that
+            out[i], errors[i] = calls[i](), None  # the other calls' memory is free
+    for exc in errors:
         if exc is not None:
             raise exc
-    return [first] + [f.result() for f in futures] + here
+    return out
 
 
 def for_each(fn: Callable[[object], None], items: Iterable) -> None:
-    """``fn(item)`` for every item, the items shared out among the threads (each takes the next free one). ``fn``
-    must only write what belongs to its item."""
+    """``fn(item)`` for every item, the items shared out among the threads (each takes the next free one); an item
+    that runs out of memory is run again alone at the end. ``fn`` must only write what belongs to its item."""
     items = list(items)
     n = min(thread_count(), len(items))
     if n <= 1 or _executor() is None:
@@ -110,6 +122,7 @@ def for_each(fn: Callable[[object], None], items: Iterable) -> None:
         return
     lock = threading.Lock()
     queue = iter(items)
+    again = []  # items that ran out of memory beside the others: run alone at the end
 
     def worker():
         while True:
@@ -117,9 +130,15 @@ def for_each(fn: Callable[[object], None], items: Iterable) -> None:
                 it = next(queue, _DONE)
             if it is _DONE:
                 return
-            fn(it)
+            try:
+                fn(it)
+            except MemoryError:
+                with lock:
+                    again.append(it)
 
     concurrently(*([worker] * n))
+    for it in again:
+        fn(it)
 
 
 _DONE = object()

@@ -134,3 +134,41 @@ def test_calls_run_here_when_no_thread_can_be_started(two_threads, monkeypatch):
     monkeypatch.setattr(pool, "submit", refuse)
     me = threading.get_ident()
     assert concurrently(lambda: 1, threading.get_ident, lambda: 3) == [1, me, 3]
+
+
+def test_a_call_out_of_memory_runs_again_alone(two_threads):
+    both = threading.Barrier(2, timeout=10)
+    running = []
+
+    def once_out_of_memory():
+        running.append("big")
+        if len(running) == 1:
+            both.wait()  # the other call is running at the same time
+            raise MemoryError
+        return "big done"
+
+    def other():
+        both.wait()
+        return "other done"
+
+    assert concurrently(other, once_out_of_memory) == ["other done", "big done"]
+    assert running == ["big", "big"]
+
+    def always():
+        raise MemoryError
+
+    with pytest.raises(MemoryError):
+        concurrently(lambda: 1, always)
+
+
+def test_for_each_runs_an_item_out_of_memory_again_at_the_end(two_threads):
+    out, tries = np.zeros(50), []
+
+    def fill(i):
+        tries.append(i)
+        if i == 7 and tries.count(7) == 1:
+            raise MemoryError
+        out[i] = i
+
+    for_each(fill, range(50))
+    assert np.array_equal(out, np.arange(50.0)) and tries.count(7) == 2
