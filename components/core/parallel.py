@@ -78,9 +78,9 @@ def _mark_helper():
 
 def concurrently(*calls: Callable[[], object]) -> list:
     """The results of the zero-argument ``calls``, in order; the first runs in the calling thread, the others on the
-    pool at the same time. A call that runs out of memory is run again alone once the others have ended (together
-    they may need more than a capped process has); the first other exception (in call order) is raised after all
-    calls have ended."""
+    pool at the same time. When a call runs out of memory (together they may need more than a capped process has),
+    the results are dropped and the calls run again one after the other; otherwise the first exception (in call
+    order) is raised after all calls have ended."""
     pool = _executor() if len(calls) > 1 else None
     if pool is None:
         return [c() for c in calls]
@@ -102,9 +102,11 @@ def concurrently(*calls: Callable[[], object]) -> list:
             errors[i] = f.exception()
             if errors[i] is None:
                 out[i] = f.result()
-    for i, exc in enumerate(errors):
-        if isinstance(exc, MemoryError):  # too much at once (a capped solver process): again, alone, now that
-            out[i], errors[i] = calls[i](), None  # the other calls' memory is free
+    if any(isinstance(exc, MemoryError) for exc in errors):
+        # too much at once for a capped solver process: every call again, one after the other, as with one thread
+        # (the results so far are dropped first, so that their memory is free)
+        out = errors = None
+        return [c() for c in calls]
     for exc in errors:
         if exc is not None:
             raise exc
