@@ -7,7 +7,8 @@ returns, bit for bit: each call computes exactly what it would alone, only the o
 may be used for calls that share mutable state.
 
 The thread count is :data:`ENV_THREADS` (``GHSERVER_THREADS``) when set (``1`` = everything in the calling
-thread), else the cores this process may use, at most :data:`MAX_THREADS`. The pool is made on first use in each
+thread), else one in a process capped under :data:`MIN_CAP_MB` of address space, else the cores this process may
+use, at most :data:`MAX_THREADS`. The pool is made on first use in each
 process (solver processes are started fresh) and a call made from inside a pool thread runs sequentially, so
 nested uses never wait for each other. Where no thread can be started (a process near its address-space cap) the
 calls run in the calling thread.
@@ -23,15 +24,19 @@ Example
 """
 from __future__ import annotations
 
+import logging
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterable
 
-__all__ = ["ENV_THREADS", "MAX_THREADS", "thread_count", "concurrently", "for_each"]
+__all__ = ["ENV_THREADS", "MAX_THREADS", "MIN_CAP_MB", "thread_count", "concurrently", "for_each"]
+
+log = logging.getLogger(__name__)
 
 ENV_THREADS = "GHSERVER_THREADS"
 MAX_THREADS = 4  # beyond this the memory bandwidth, not the cores, bounds these steps
+MIN_CAP_MB = 4096  # a process capped under this many MB of address space uses one thread (see thread_count)
 _lock = threading.Lock()
 _pool: ThreadPoolExecutor | None = None
 _pool_key: tuple | None = None  # (pid, size) the pool was made for
@@ -39,8 +44,10 @@ _local = threading.local()
 
 
 def thread_count() -> int:
-    """Threads the steps may use: ``GHSERVER_THREADS`` when set to a positive integer, else this process's cores
-    (at most :data:`MAX_THREADS`)."""
+    """Threads the steps may use: ``GHSERVER_THREADS`` when set to a positive integer; else one in a process whose
+    address space is capped under :data:`MIN_CAP_MB` (a server's solver process on a machine with little memory
+    per worker: steps at the same time hold their memory at the same time, and 50k triangles at 1 GB ran out of
+    memory with two threads and not with one); else this process's cores (at most :data:`MAX_THREADS`)."""
     env = os.environ.get(ENV_THREADS, "").strip()
     if env:
         try:
@@ -49,11 +56,24 @@ def thread_count() -> int:
             n = 0
         if n >= 1:
             return n
+    if _address_space_cap_mb() < MIN_CAP_MB:
+        return 1
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):  # Windows, macOS
         cores = os.cpu_count() or 1
     return max(1, min(MAX_THREADS, cores))
+
+
+def _address_space_cap_mb() -> float:
+    """The process's address-space cap (``RLIMIT_AS``) in MB, infinite where there is none or it is unknown."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, AttributeError, OSError, ValueError):  # Windows
+        return float("inf")
+    return float("inf") if soft == resource.RLIM_INFINITY or soft < 0 else soft / 2**20
 
 
 def _executor() -> ThreadPoolExecutor | None:
@@ -106,6 +126,7 @@ def concurrently(*calls: Callable[[], object]) -> list:
         # too much at once for a capped solver process: every call again, one after the other, as with one thread
         # (the results so far are dropped first, so that their memory is free)
         out = errors = None
+        log.info("%d steps ran out of memory beside each other: again one after the other", len(calls))
         return [c() for c in calls]
     for exc in errors:
         if exc is not None:

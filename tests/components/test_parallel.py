@@ -1,6 +1,7 @@
 """components.core.parallel: independent steps on two threads give exactly the sequential results; the field and
 the candidate are bit for bit the same with one thread and with two."""
 import hashlib
+import os
 import threading
 
 import numpy as np
@@ -175,3 +176,14 @@ def test_for_each_runs_an_item_out_of_memory_again_at_the_end(two_threads):
 
     for_each(fill, range(50))
     assert np.array_equal(out, np.arange(50.0)) and tries.count(7) == 2
+
+
+def test_one_thread_in_a_process_capped_under_4_gb(monkeypatch):
+    monkeypatch.delenv(parallel.ENV_THREADS, raising=False)
+    monkeypatch.setattr(parallel, "_address_space_cap_mb", lambda: 1024.0)
+    assert thread_count() == 1
+    monkeypatch.setenv(parallel.ENV_THREADS, "2")  # asked for explicitly: given
+    assert thread_count() == 2
+    monkeypatch.delenv(parallel.ENV_THREADS)
+    monkeypatch.setattr(parallel, "_address_space_cap_mb", lambda: 8192.0)
+    assert thread_count() == min(parallel.MAX_THREADS, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count())
