@@ -366,6 +366,8 @@ def main(argv=None):
         if path.exists():
             inputs.append(("face.obj", str(path)))
     steps = [i for i, s in enumerate(STEPS) if not args.steps or any(k in s.name for k in args.steps)]
+    from components.core.parallel import thread_count
+    print(f"threads within a step: {thread_count()} (GHSERVER_THREADS; results are the same with any count)")
     print(f"{'step':42s} {'input':10s} {'tris':>7s} {'ours s':>8s} {'cpu s':>7s} {'ref s':>8s} {'ref cpu':>7s} "
           f"{'ratio':>6s} {'peak MB':>8s}  reference / result")
     for i in steps:
