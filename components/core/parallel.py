@@ -8,10 +8,9 @@ may be used for calls that share mutable state.
 
 The thread count is :data:`ENV_THREADS` (``GHSERVER_THREADS``) when set (``1`` = everything in the calling
 thread), else one in a process capped under :data:`MIN_CAP_MB` of address space, else the cores this process may
-use, at most :data:`MAX_THREADS`. The pool is made on first use in each
-process (solver processes are started fresh) and a call made from inside a pool thread runs sequentially, so
-nested uses never wait for each other. Where no thread can be started (a process near its address-space cap) the
-calls run in the calling thread.
+use, at most :data:`MAX_THREADS`. The pool is made on first use in each process (solver processes are started
+fresh) and a call made from inside a pool thread runs sequentially, so nested uses never wait for each other. Where
+no thread can be started (a process near its address-space cap) the calls run in the calling thread.
 
 Example
 -------
@@ -35,7 +34,7 @@ __all__ = ["ENV_THREADS", "MAX_THREADS", "MIN_CAP_MB", "thread_count", "concurre
 log = logging.getLogger(__name__)
 
 ENV_THREADS = "GHSERVER_THREADS"
-MAX_THREADS = 4  # beyond this the memory bandwidth, not the cores, bounds these steps
+MAX_THREADS = 4  # the steps' independent parts are few (pairs of systems, two boundary modes); measured on 2 cores
 MIN_CAP_MB = 4096  # a process capped under this many MB of address space uses one thread (see thread_count)
 _lock = threading.Lock()
 _pool: ThreadPoolExecutor | None = None
