@@ -236,6 +236,17 @@ def _pinned_solver(A, free: np.ndarray, c: np.ndarray):
     return solve
 
 
+def _pinned_values(m: int, pinned) -> tuple[np.ndarray, np.ndarray]:
+    """``free (m,) bool`` and ``c (m,) complex``: the entries not pinned, and the pinned values in place (0
+    elsewhere), of ``pinned = (faces, values)`` or None."""
+    free = np.ones(m, dtype=bool)
+    c = np.zeros(m, dtype=complex)
+    if pinned is not None and len(pinned[0]):
+        free[pinned[0]] = False
+        c[pinned[0]] = pinned[1]
+    return free, c
+
+
 def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, guess=None):
     """Minimize ``cᴴ L c + Σ w |c − t|²`` with optional pinned values; returns the coefficient per face.
 
@@ -243,11 +254,7 @@ def _solve_coefficient(L, wface: np.ndarray, target: np.ndarray, pinned=None, gu
     smallest eigenvalue) is returned, found by inverse iteration.
     """
     m = L.shape[0]
-    free = np.ones(m, dtype=bool)
-    c = np.zeros(m, dtype=complex)
-    if pinned is not None and len(pinned[0]):
-        free[pinned[0]] = False
-        c[pinned[0]] = pinned[1]
+    free, c = _pinned_values(m, pinned)
     A = (L + sp.diags(wface.astype(complex))).tocsr()
     if np.any(wface[free] > 0) or not free.all():
         return _pinned_solver(A, free, c)(wface * target)
@@ -267,12 +274,7 @@ def _spread_solver(L, w: np.ndarray, pinned, area: np.ndarray, core: float = 3.0
     can be factored while the field is solved): ``(solve, μ)``, pinned entries kept at their values."""
     eps = core * float(np.sqrt(2.0 * area.mean()))
     mu = area / (eps * eps)
-    free = np.ones(L.shape[0], dtype=bool)
-    c = np.zeros(L.shape[0], dtype=complex)
-    if pinned is not None and len(pinned[0]):
-        free[pinned[0]] = False
-        c[pinned[0]] = pinned[1]
-    return _pinned_solver((L + sp.diags((w + mu).astype(complex))).tocsr(), free, c), mu
+    return _pinned_solver((L + sp.diags((w + mu).astype(complex))).tocsr(), *_pinned_values(L.shape[0], pinned)), mu
 
 
 def _spread_singularities(w: np.ndarray, t: np.ndarray, X: np.ndarray, iterations: int, spread) -> np.ndarray:
