@@ -120,7 +120,7 @@ def corner_turns(X: np.ndarray, C: Corners, N: np.ndarray,
     den = np.maximum(np.sqrt(aa * aa[succ]), 1e-300)
     nx, ny, nz = (np.ascontiguousarray(N[:, j])[C.face] for j in range(3))
     turn = (cx * nx + cy * ny + cz * nz) / den
-    angle = np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz), -(ax * bx + ay * by + az * bz))
+    angle = np.arctan2(length3(cx, cy, cz), -(ax * bx + ay * by + az * bz))
     return turn, angle
 
 
@@ -398,6 +398,18 @@ class CrossingWatch:
         return out[np.lexsort((out[:, 1], out[:, 0]))]
 
 
+def length3(x, y, z):
+    """Lengths of vectors given by their components (1-D arrays): the numbers of ``np.linalg.norm(v, axis=1)`` on the
+    rows ``(x, y, z)``.
+
+    Example
+    -------
+    >>> length3(np.array([3.0]), np.array([4.0]), np.array([0.0]))
+    array([5.])
+    """
+    return np.sqrt(x * x + y * y + z * z)
+
+
 def einsum_sum3(t0, t1, t2):
     """``t0 + t1 + t2`` summed in the order numpy's ``np.einsum`` sums a contiguous axis of three products
     (measured on numpy 2.4: ``0 + ((t0 + t2) + t1)``, two SIMD lanes, then the tail, into a zeroed output), so that
@@ -484,6 +496,6 @@ def _sphere_pairs(G, R) -> np.ndarray:
     i, j = np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1])
     Gx, Gy, Gz = np.ascontiguousarray(G.T)
     dx, dy, dz = Gx[i] - Gx[j], Gy[i] - Gy[j], Gz[i] - Gz[j]
-    d = np.sqrt(dx * dx + dy * dy + dz * dz)  # norm(G[i] − G[j]), the same numbers from 1-D gathers
+    d = length3(dx, dy, dz)  # norm(G[i] − G[j]) from 1-D gathers
     keep = d < R[i] + R[j]
     return np.stack([i[keep], j[keep]], axis=1)

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.mesh import Corners, face_corners
-from components.planarize.geometry import Stars, einsum_sum3
+from components.planarize.geometry import Stars, einsum_sum3, length3
 
 
 class Block(NamedTuple):
@@ -40,15 +40,10 @@ def planarity_residual(X: np.ndarray, Q4: np.ndarray) -> np.ndarray:
     d1 = [ci - ai for ci, ai in zip(c, a)]
     d2 = [di - bi for di, bi in zip(d, b)]
     cr = (d1[1] * d2[2] - d1[2] * d2[1], d1[2] * d2[0] - d1[0] * d2[2], d1[0] * d2[1] - d1[1] * d2[0])  # np.cross
-    md = 0.5 * (_length(d1) + _length(d2))
-    den = _length(cr) * md
+    md = 0.5 * (length3(*d1) + length3(*d2))
+    den = length3(*cr) * md
     vol = einsum_sum3(*((bi - ai) * ci for ai, bi, ci in zip(a, b, cr)))  # np.einsum("ij,ij->i", b - a, cr)
     return vol / np.where(den > 1e-300, den, 1e-300)
-
-
-def _length(v):
-    """``np.linalg.norm(v, axis=1)`` of a vector given by its components ``(x, y, z)`` (the same numbers)."""
-    return np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
 def planarity_block(X: np.ndarray, Q4: np.ndarray, weight: float) -> Block:

@@ -62,7 +62,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.measures import norm
-from components.planarize.geometry import corner_turns, crossing_pairs, einsum_sum3
+from components.planarize.geometry import corner_turns, crossing_pairs, einsum_sum3, length3
 from components.planarize.problem import planarity_excess, planarity_score
 
 log = logging.getLogger(__name__)
@@ -310,7 +310,7 @@ def panel_health(prob, guard: PanelGuard, X, crossings: bool = True) -> Health:
     x, y, z = np.ascontiguousarray(X.T)
     E0, E1 = prob.E.T
     dx, dy, dz = x[E1] - x[E0], y[E1] - y[E0], z[E1] - z[E0]
-    lengths = np.sqrt(dx * dx + dy * dy + dz * dz)  # np.linalg.norm's numbers
+    lengths = length3(dx, dy, dz)
     g = guard.guarded
     ncv = np.zeros(len(prob.F), dtype=bool)
     ncv[prob.corners.face[(turn <= 0) & g]] = True

@@ -222,15 +222,16 @@ def planarize_mesh(
     return _solved(V, F, reference, "reference", opts, mesh_name, t0)
 
 
-# The solver's runs, tried in turn while none has converged healthy and the time budget holds another run as long
-# as the shortest so far (a run cut short by the budget rarely converges); the best is returned (:func:`_better`).
-# (Until 2026-12 only half the budget was used: the wave sample at ×1000 converges with the sixth run only, which
-# started past half of a 10 s budget on some days and not on others: the result depended on the machine's speed.) ``(lift_rows, relax_floor)``: whether a guard row still lifting its item is kept
-# (step.py), and how far the restore phase may relax the closeness stiffness (phases.py). Which run reaches the
-# tolerance flips from candidate to candidate with round-off (another CPU's SIMD kernels are enough): on the
-# 52-panel wave sample at ×1, ×0.001, ×1000 and +5e6 (an AVX-512 machine, 2026-12) no single run converged at all
-# four placements — the most planar states lost coverage and were backed off — and every placement converged with
-# one of these; a candidate that converges at once costs one run, as before.
+# The solver's runs, tried in turn while none has converged healthy and the time budget holds another run as long as
+# the shortest so far (a run cut short by the budget rarely converges); the best is returned (:func:`_better`).
+# ``(lift_rows, relax_floor)``: whether a guard row still lifting its item is kept (step.py), and how far the restore
+# phase may relax the closeness stiffness (phases.py). Which run reaches the tolerance flips from candidate to
+# candidate with round-off (another CPU's SIMD kernels are enough): on the 52-panel wave sample at ×1, ×0.001, ×1000
+# and +5e6 (an AVX-512 machine, 2026-12) no single run converged at all four placements — the most planar states lost
+# coverage and were backed off — and every placement converged with one of these; a candidate that converges at once
+# costs one run, as before. (Until 2026-12 only half the budget was used: the wave sample at ×1000 converges with the
+# sixth run only, which started past half of a 10 s budget on some days and not on others: the result depended on the
+# machine's speed.)
 _ATTEMPTS = ((True, 0.01), (False, 0.01), (True, 1.0), (False, 1.0), (True, 0.1), (False, 0.1))
 
 
