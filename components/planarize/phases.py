@@ -186,8 +186,9 @@ def iterate(prob, guard, t0: float) -> Run:
         run.soft_cache = None
         optimize = run.phase == "optimize"
         # the restore phase held at its closeness floor: the guard rows of far-moving vertices are released
-        prob.release_far = run.phase == "restore" and run.held >= 1 and not _can_relax_closeness(prob, run)
-        step = solve_step(prob, run.guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize)
+        release_far = run.phase == "restore" and run.held >= 1 and not _can_relax_closeness(prob, run)
+        step = solve_step(prob, run.guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize,
+                          release_far)
         if step.singular:
             run.stop_reason = "the linear system is singular (coincident vertices or collapsed faces in the mesh)"
             break

@@ -207,7 +207,6 @@ class Problem:
     _normals_memo: tuple = (None, None)  # (positions, unit face normals) of the latest turn guard rows
     lift_rows: bool = True  # guard rows still lifting their item to its target are never released (see step.py)
     relax_floor: float = 0.01  # the share of the closeness stiffness the restore phase may relax to (phases.py)
-    release_far: bool = False  # release the guard rows of vertices the step would move far (step.py, phases.py)
 
     def reference_query(self, X):
         """Closest points of ``X`` on the reference (the last query is reused when ``X`` is the same array)."""

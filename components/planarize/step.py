@@ -16,7 +16,7 @@ Far moves: where the linearized planarity and guard rows of a few vertices nearl
 minimum-norm step moves those vertices tens of edges (up to 150 on the 200k-triangle benchmark patch, seed 1, where
 the 99th percentile of the moves was under one edge), and the step, scaled so that no vertex moves more than one
 edge, crawls everywhere (β 0.001-0.04: 100 iterations to 1.8e-3). When the caller asks for it
-(``prob.release_far``: the restore phase held at its closeness floor, see :mod:`components.planarize.phases`),
+(``release_far``: the restore phase held at its closeness floor, see :mod:`components.planarize.phases`),
 the guard rows of the vertices moving more than ``_FAR`` × the 99th percentile and more than one edge are released
 (once per iteration, at its first solve that moves vertices that far) and the system solved again; the trials stay
 health-checked.
@@ -136,12 +136,13 @@ def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize) -> Directions | None
     return Directions(Factorization(J, JG, lu, Gb, n_hard), lam_f, df, lam_o, do)
 
 
-def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False) -> Step:
+def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release_far=False) -> Step:
     """One iteration's step from ``cur`` (soft terms ``soft = (g, H, f)`` at ``cur.X``).
 
     ``t`` is the fraction of the optimality step to try first (0 outside the optimize phase). ``sticky`` ``(c + e +
     m,) bool`` holds the guard items whose rows are kept from step to step; it is updated in place (items added
-    after an unhealthy trial, rows found loose released).
+    after an unhealthy trial, rows found loose released). ``release_far``: release the guard rows of vertices the
+    step would move far (see the module docstring).
     """
     X = cur.X
     g, H, f_cur = soft
@@ -151,7 +152,7 @@ def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False) -> Step
     guard_sel = watched_rows(guard, cur.values, sticky)
     accepted, fact, beta, d, f_new, failed = None, None, 1.0, None, None, ()
     attempt = releases = 0
-    far_checked = not prob.release_far
+    far_checked = not release_far
     while attempt < _GUARD_ATTEMPTS:
         sel = np.nonzero(guard_sel)[0]
         d = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize)

@@ -258,8 +258,7 @@ def test_far_moving_vertices_lose_their_guard_rows_once(monkeypatch):
 
     monkeypatch.setattr(step_mod, "_directions", far_first)
     monkeypatch.setattr(step_mod, "watched_rows", lambda guard, values, sticky: sticky.copy())  # rows = the kept ones
-    prob.release_far = True
-    solve_step(prob, guard, cur, soft_terms(prob, cur.X), sticky, 0.0)
+    solve_step(prob, guard, cur, soft_terms(prob, cur.X), sticky, 0.0, release_far=True)
     first, second = calls[0], calls[1]
     corners = first[first < c]
     at_v = corners[prob.corners.v[corners] == v]
