@@ -256,20 +256,24 @@ def area_guard_block(X: np.ndarray, F: np.ndarray, sel: np.ndarray, target) -> B
     return Block(area - target, rows, cols, g.ravel(), 1.0)
 
 
+def _unit_normals(X: np.ndarray, F: np.ndarray, faces: np.ndarray):
+    """Corners, unit Newell normals and areas (at least 1e-300) of the faces ``F[faces]``, the area vectors summed
+    about each face's first corner (no cancellation far from the origin)."""
+    C = face_corners(F[faces])
+    O = X[F[faces, 0]][C.face]
+    Avec = np.zeros((len(faces), 3))
+    np.add.at(Avec, C.face, 0.5 * np.cross(X[C.v] - O, X[C.next] - O))
+    area = np.maximum(np.linalg.norm(Avec, axis=1), 1e-300)
+    return C, Avec / area[:, None], area
+
+
 def fold_guard_block(X: np.ndarray, F: np.ndarray, pairs: np.ndarray, target) -> Block:
     """Fold guard rows ``n1 · n2 − target`` for the face pairs ``pairs (q, 2)`` sharing an edge (``n``: unit Newell
     normals): two faces whose normals turn by nearly 180° have folded onto each other; held above the target,
     they cannot. ``d(n1·n2)/dv = ½ (v_next − v_prev) × u`` over the corners of each face, with
     ``u1 = (n2 − (n1·n2) n1) / |A1|`` (and the same for the second face); the shared vertices get both terms."""
-    q = len(pairs)
-    parts, normals = [], []
-    for side in (0, 1):
-        C = face_corners(F[pairs[:, side]])
-        O = X[F[pairs[:, side], 0]][C.face]
-        Avec = np.zeros((q, 3))
-        np.add.at(Avec, C.face, 0.5 * np.cross(X[C.v] - O, X[C.next] - O))
-        area = np.maximum(np.linalg.norm(Avec, axis=1), 1e-300)
-        normals.append((C, Avec / area[:, None], area))
+    parts = []
+    normals = [_unit_normals(X, F, pairs[:, side]) for side in (0, 1)]
     n1, n2 = normals[0][1], normals[1][1]
     dots = np.einsum("ij,ij->i", n1, n2)
     for (C, n, area), other in zip(normals, (n2, n1)):
@@ -282,6 +286,20 @@ def fold_guard_block(X: np.ndarray, F: np.ndarray, pairs: np.ndarray, target) ->
     g = np.concatenate([p[2] for p in parts])[order]
     rows = np.repeat(face[order], 3)
     cols = (3 * verts[:, None] + np.arange(3)[None, :]).ravel()
+    return Block(dots - target, rows, cols, g.ravel(), 1.0)
+
+
+def flip_guard_block(X: np.ndarray, F: np.ndarray, faces: np.ndarray, R: np.ndarray, target) -> Block:
+    """Flip guard rows ``n · r − target`` for the faces ``F[faces]`` (``n``: unit Newell normal, ``r (q, 3)``: the
+    design surface's unit normal under each face, fixed): a face whose normal turns against the surface's has
+    flipped; held above the target, it cannot. ``d(n·r)/dv = ½ (v_next − v_prev) × u`` over the corners of the
+    face, ``u = (r − (n·r) n) / |A|``; the rows come face by face."""
+    C, n, area = _unit_normals(X, F, faces)
+    dots = np.einsum("ij,ij->i", n, R)
+    u = (R - dots[:, None] * n) / area[:, None]
+    g = 0.5 * np.cross(X[C.next] - X[C.prev], u[C.face])
+    rows = np.repeat(C.face, 3)
+    cols = (3 * C.v[:, None] + np.arange(3)[None, :]).ravel()
     return Block(dots - target, rows, cols, g.ravel(), 1.0)
 
 

@@ -19,17 +19,21 @@ the bounds do not depend on the model's units or placement):
   (their unit normals ``n1 · n2 ≥ −cos`` of that).
 * **flips** (with an oriented reference): no face may turn its normal against the reference's normal under it
   (measured at the input, on the side most of the faces lie on), unless it was flipped in the input already: the
-  verdict's "flipped" check, which a face sliding along a curved surface could otherwise fail at the end.
+  verdict's "flipped" check, which a face sliding along a curved surface could otherwise fail at the end. A face
+  turning within 10° of standing on edge (``n · r < sin 10°``) gets a row holding it at ``sin 5°`` (or where it
+  started, if lower): without one, a step that turns it is only shortened, and on the 52k-triangle face scan
+  (``face.obj``) every step along the same direction flipped the same face until the solver stopped.
 * **crossings**: no face may cross or overlap a face it shares no vertex with, unless the two crossed in the
   input already (:func:`components.planarize.geometry.crossing_pairs`; tested last, only on states that pass the
   rest).
 
-:func:`evaluate` measures a state (planarity score and health; ``State.failed`` names the failed guards). Corners,
-edges and faces are the guard's **items**, one vector in that order (corners in
-:func:`components.core.mesh.face_corners` order, edges in :func:`components.core.mesh.edge_topology` order, then
-faces): an item close to its bound gets a hard row (:func:`components.planarize.rows.hard_rows`) that lifts it to
-a target just above the bound or holds it (:func:`watched_rows`, :func:`rows_to_guard`). Folds, flips and crossings
-are only rejected: the line search shortens the step.
+:func:`evaluate` measures a state (planarity score and health; ``State.failed`` names the failed guards). Corner
+sharpness, corner turns, edges, faces, hinges (folds) and faces again (flips) are the guard's **items**, one vector
+in that order (corners in :func:`components.core.mesh.face_corners` order, edges in
+:func:`components.core.mesh.edge_topology` order, hinges in ``prob.inner_faces`` order): an item close to its bound
+gets a hard row (:func:`components.planarize.rows.hard_rows`) that lifts it to a target just above the bound or
+holds it (:func:`watched_rows`, :func:`rows_to_guard`). Crossings are only rejected: the line search shortens the
+step.
 
 :func:`health_bounds` turns the same bounds into the thresholds of the final verdict
 (:func:`components.metrics.health.face_health`): ``A``, ``ρe``, ``ρa``, or 90 % of the input's worst values where
@@ -47,7 +51,7 @@ Example
 >>> V, F = quad_grid(3, 3, 3.0, 3.0)
 >>> prob = setup_problem(V, F, None, checked_options(len(V)))
 >>> guard = panel_guard(prob)
->>> round(float(np.degrees(guard.lo)), 6), bool(guard.guarded.all()), guard.n_items == 2 * 36 + 24 + 9 + 12
+>>> round(float(np.degrees(guard.lo)), 6), bool(guard.guarded.all()), guard.n_items == 2 * 36 + 24 + 9 + 12 + 9
 (45.0, True, True)
 >>> st = evaluate(prob, guard, prob.X0, np.zeros((0, 3)))
 >>> st.healthy, st.nonconvex, st.score, st.failed
@@ -77,6 +81,7 @@ _WORSEN = 0.1  # an item (corner, edge, face) that starts under its bound may lo
 _EDGE_MARGIN = (1.10, 1.05)  # an edge below (act, target) × its bound gets a row lifting it to the target
 _AREA_MARGIN = (1.20, 1.10)
 _FOLD_MARGIN = (math.radians(10.0), math.radians(5.0))  # (act, target) openings above the fold bound
+_FLIP_MARGIN = (math.radians(10.0), math.radians(5.0))  # (act, target) angles of a face over standing on edge
 
 
 class HealthBounds(NamedTuple):
@@ -103,8 +108,8 @@ class PanelGuard(NamedTuple):
     len_min: np.ndarray  # (e,) the shortest an edge may get
     area_in: np.ndarray  # (m,) input face areas
     area_min: np.ndarray  # (m,) the smallest a face may get
-    item_on: np.ndarray  # (2c + e + m + i,) bool, items that may get a guard row
-    item_min: np.ndarray  # bound of every item's value (sharpness, turn, length, area, n1·n2 across an edge)
+    item_on: np.ndarray  # (2c + e + m + i + m,) bool, items that may get a guard row
+    item_min: np.ndarray  # bound of every item's value (sharpness, turn, length, area, n1·n2 across an edge, n·r)
     item_act: np.ndarray  # an item below this value gets a guard row
     item_tgt: np.ndarray  # a guard row lifts its item to this value
     fold_faces: np.ndarray  # (i, 2) the two faces of every interior edge (``prob.inner_faces``)
@@ -166,18 +171,32 @@ def panel_guard(prob) -> PanelGuard:
     fold_tgt = np.full(len(fold_faces), -math.cos(open_min + _FOLD_MARGIN[1]))
     cross_in = _crossings(prob, prob.X0)
     on_c = guarded
+    flip = _flip_watch(prob, N0, area_in)
+    flip_on = flip.get("flip_on", np.zeros(len(F), dtype=bool))
+    flip_in = _flip_dots(N0, flip.get("flip_normals"))
+    flip_act = np.full(len(F), math.sin(_FLIP_MARGIN[0]))
+    flip_tgt = np.minimum(math.sin(_FLIP_MARGIN[1]), flip_in)
     return PanelGuard(
         quad_like=quad_like, guarded=guarded, turn_in=turn_in, angle_in=angle_in,
         n_nonconvex_in=int(ncv_in_face[quad_like].sum()), lo=lo, angle_floor=floor, turn_min=turn_min,
         len_in=len_in, len_min=len_min, area_in=area_in, area_min=area_min,
-        item_on=np.concatenate([on_c, on_c, np.ones(len(len_in) + len(area_in) + len(fold_faces), bool)]),
-        item_min=np.concatenate([floor, turn_min, len_min, area_min, fold_min]),
+        item_on=np.concatenate([on_c, on_c, np.ones(len(len_in) + len(area_in) + len(fold_faces), bool),
+                                flip_on]),
+        item_min=np.concatenate([floor, turn_min, len_min, area_min, fold_min, np.zeros(len(F))]),
         item_act=np.concatenate([sharp_act, turn_act, _EDGE_MARGIN[0] * len_lift, _AREA_MARGIN[0] * area_lift,
-                                 fold_act]),
+                                 fold_act, flip_act]),
         item_tgt=np.concatenate([sharp_tgt, turn_tgt, _EDGE_MARGIN[1] * len_lift, _AREA_MARGIN[1] * area_lift,
-                                 fold_tgt]),
+                                 fold_tgt, flip_tgt]),
         fold_faces=fold_faces, open_min=open_min, crossings_in=cross_in[:, 0] * len(F) + cross_in[:, 1],
-        bounds=health_bounds(opts, angle_in, len_in, area_in), **_flip_watch(prob, N0, area_in))
+        bounds=health_bounds(opts, angle_in, len_in, area_in), **flip)
+
+
+def _flip_dots(N, flip_normals) -> np.ndarray:
+    """``n · r`` of every face's unit normal ``N`` with the reference's normal under it (ones without a flip guard),
+    component by component (1-D gathers) in the numbers of ``np.einsum("ij,ij->i", ...)`` on the rows."""
+    if flip_normals is None:
+        return np.ones(len(N))
+    return einsum_sum3(*(np.ascontiguousarray(N[:, j]) * flip_normals[:, j] for j in range(3)))
 
 
 def _flip_watch(prob, N0, area_in) -> dict:
@@ -271,7 +290,8 @@ class State(NamedTuple):
     nonconvex: int  # faces with a corner turning the wrong way (among the guarded faces)
     healthy: bool
     planarity: np.ndarray  # (m,) the reported scale-free planarity of every face
-    values: np.ndarray | None = None  # (2c + e + m + i,) the items' values: sharpness, turns, lengths, areas, folds
+    values: np.ndarray | None = None  # (2c + e + m + i + m,) the items' values: sharpness, turns, lengths, areas,
+    # folds, flips
     failed: tuple = ()  # the guards (of GUARDS) the state fails
     excess: float = 0.0  # Σ max(planarity / tolerance − 1, 0)² (problem.planarity_excess)
 
@@ -285,6 +305,7 @@ class Health(NamedTuple):
     lengths: np.ndarray
     areas: np.ndarray
     folds: np.ndarray  # (i,) n1 · n2 across every interior edge
+    flips: np.ndarray  # (m,) n · r of every face with the reference's normal under it (ones without a flip guard)
     nonconvex: int  # non-convex quad-like faces (those of the input included)
     failed: tuple
 
@@ -331,12 +352,13 @@ def panel_health(prob, guard: PanelGuard, X, crossings: bool = True) -> Health:
     dots = einsum_sum3(*(n[f0] * n[f1] for n in Nc))
     if np.any(dots < -math.cos(guard.open_min)):
         failed.append("fold")
-    if guard.flip_on is not None and np.any(
-            (einsum_sum3(*(n * guard.flip_normals[:, j] for j, n in enumerate(Nc))) < 0.0) & guard.flip_on):
+    flips = np.ones(len(prob.F)) if guard.flip_on is None else \
+        einsum_sum3(*(n * guard.flip_normals[:, j] for j, n in enumerate(Nc)))
+    if guard.flip_on is not None and np.any((flips < 0.0) & guard.flip_on):
         failed.append("flip")
     if not failed and crossings and new_crossings(prob, guard, X):
         failed.append("crossing")
-    return Health(turn, ang, sharp, lengths, areas, dots,
+    return Health(turn, ang, sharp, lengths, areas, dots, flips,
                   int(ncv[guard.quad_like].sum()) + guard.n_nonconvex_in, tuple(failed))
 
 
@@ -347,7 +369,7 @@ def evaluate(prob, guard: PanelGuard, X, tangents, crossings: bool = True) -> St
     score, pl = planarity_score(prob, X)
     h = panel_health(prob, guard, X, crossings)
     return State(X, tangents, score, h.turn, h.angle, h.nonconvex, not h.failed, pl,
-                 np.concatenate([h.sharpness, h.turn, h.lengths, h.areas, h.folds]), h.failed,
+                 np.concatenate([h.sharpness, h.turn, h.lengths, h.areas, h.folds, h.flips]), h.failed,
                  planarity_excess(prob, X, pl))
 
 
@@ -359,16 +381,16 @@ def crossing_checked(prob, guard: PanelGuard, state: State) -> State:
 
 
 def watched_rows(guard: PanelGuard, values, sticky) -> np.ndarray:
-    """``(2c + e + m + i,) bool``: the items that start a step with a guard row: close to their bound at ``values``, or
-    kept (``sticky``) from earlier steps while still within twice that margin (a row held far from its bound only
-    over-constrains the step)."""
+    """``(2c + e + m + i + m,) bool``: the items that start a step with a guard row: close to their bound at
+    ``values``, or kept (``sticky``) from earlier steps while still within twice that margin (a row held far from its
+    bound only over-constrains the step)."""
     band = values < 2.0 * guard.item_act - guard.item_min  # twice the margin: a kept row far from its bound goes
     return guard.item_on & ((values < guard.item_act) | (sticky & band))
 
 
 def rows_to_guard(guard: PanelGuard, trial: State, guard_sel) -> np.ndarray:
-    """``(2c + e + m + i,) bool``: items without a guard row (``guard_sel``) that an unhealthy ``trial`` pushed close
-    to or below a bound: the step is solved again with rows for them."""
+    """``(2c + e + m + i + m,) bool``: items without a guard row (``guard_sel``) that an unhealthy ``trial`` pushed
+    close to or below a bound: the step is solved again with rows for them."""
     return guard.item_on & (trial.values < guard.item_act) & ~guard_sel
 
 

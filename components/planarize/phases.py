@@ -80,7 +80,7 @@ class Run:
     cur: State
     best: State  # lowest score seen
     start_score: float
-    sticky: np.ndarray  # (c + e + m + i,) bool, guard items whose rows are kept from step to step
+    sticky: np.ndarray  # (2c + e + m + i + m,) bool, guard items whose rows are kept from step to step
     hist: dict = field(default_factory=lambda: dict(maxp=[], meanp=[], maxc=[], meanc=[], t=[]))
     converged: bool = False
     stop_reason: str = ""

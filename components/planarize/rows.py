@@ -201,14 +201,15 @@ def _relaxed_target(prob, X, r):
     return np.where(prob.is_quad_row, np.clip(r, -tau, tau), 0.0)
 
 
-def hard_rows(prob, X, sel, targets):
+def hard_rows(prob, X, sel, targets, flip_normals=None):
     """Hard rows ``J Δ = −(r − s)``: planarity (relaxed, see :func:`_relaxed_target`), the conical criterion when on,
     and one guard row per selected guard item ``sel`` (ascending indices into the items of
-    :mod:`components.planarize.guard`: corner sharpness, corner turns, edges, faces, hinges of interior edges).
+    :mod:`components.planarize.guard`: corner sharpness, corner turns, edges, faces, hinges of interior edges, faces
+    against the reference's normals ``flip_normals (m, 3)``).
 
     A guarded item below its target (``targets``, one per selected item: a corner's sharpness or turn (about the
-    face normal at ``X``, held fixed), an edge length, a face area, the normals' dot product across an edge) is
-    lifted to it; one above may not fall further (the row
+    face normal at ``X``, held fixed), an edge length, a face area, the normals' dot product across an edge, a face
+    normal's with the reference's) is lifted to it; one above may not fall further (the row
     is an inequality in effect: rows whose multiplier would hold the value down are released by the caller, unless
     their item is still under its target).
 
@@ -228,12 +229,13 @@ def hard_rows(prob, X, sel, targets):
     sel = np.asarray(sel, dtype=np.int64)
     targets = np.broadcast_to(np.asarray(targets, dtype=np.float64), sel.shape)
     c, e, m = len(prob.corners.v), len(prob.E), len(prob.F)
-    group = np.searchsorted(np.cumsum([c, c, e, m]), sel, side="right")  # 0 sharpness .. 4 folds
-    for kind in range(5):
+    i = len(prob.inner_faces)
+    group = np.searchsorted(np.cumsum([c, c, e, m, i]), sel, side="right")  # 0 sharpness .. 4 folds, 5 flips
+    for kind in range(6):
         pick = group == kind
         if not pick.any():
             continue
-        idx = sel[pick] - (0, c, 2 * c, 2 * c + e, 2 * c + e + m)[kind]
+        idx = sel[pick] - (0, c, 2 * c, 2 * c + e, 2 * c + e + m, 2 * c + e + m + i)[kind]
         if kind == 0:
             blk = goals.sharpness_guard_block(X, prob.corners, idx, 0.0)
         elif kind == 1:
@@ -244,8 +246,10 @@ def hard_rows(prob, X, sel, targets):
             blk = goals.edge_guard_block(X, prob.E, idx, 0.0)
         elif kind == 3:
             blk = goals.area_guard_block(X, prob.F, idx, 0.0)
-        else:
+        elif kind == 4:
             blk = goals.fold_guard_block(X, prob.F, prob.inner_faces[idx], 0.0)
+        else:
+            blk = goals.flip_guard_block(X, prob.F, idx, flip_normals[idx], 0.0)
         blocks.append(blk._replace(r=blk.r - np.maximum(blk.r, targets[pick])))  # lift to the target, or hold
     J, r = stack_rows(blocks, 3 * prob.n)
     return J, r, n_hard

@@ -8,9 +8,22 @@ then tries ``X + β Δf + t Δo`` (β ≤ 1 capped so that no vertex moves more 
 optimize phase ``t`` is halved instead) until a trial is healthy (:mod:`components.planarize.guard`) and makes
 progress: a lower planarity score (or the same worst face and a lower total excess over the tolerance, so that a
 face held by the guard does not stop the others), or in the optimize phase a lower soft objective with planarity
-within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corners, edges, faces and hinges it pushed
-toward their bounds and solves again (later in the iteration: takes a shorter healthy step first); a trial that
-only crosses faces is shortened.
+within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corners, edges, faces, hinges and face
+normals it pushed toward their bounds and solves again (later in the iteration: takes a shorter healthy step first);
+a trial that only crosses faces is shortened.
+
+Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` its mean diagonal and
+``μ = 0.03 ×`` the RMS residual of the planarity rows (:func:`damping`; at least 1e-10, which only keeps an exactly
+singular system factorable). Where the linearized planarity and guard rows nearly contradict each other, the
+undamped system's multipliers reach 1e10 and its step moves a few vertices tens of edges, so the step scaled to the
+trust region crawls; damped, such rows are met only in part while the residual is large, and as it vanishes near
+the tolerance the step becomes the Gauss-Newton step again (μ proportional to the residual keeps its fast final
+convergence). Measured on the saved conjugate-field candidates (``benchmarks/convergence.py --saved``, 8k and 20k
+triangles, seeds 0-7, ×1, ×1000, +5e6, and the 20k benchmark's candidate: 41 runs; CPU seconds): damped, with the
+flip rows of :mod:`components.planarize.guard`, 41 converge in 48 CPU s; undamped, 39 in 90 s without the flip rows
+and 40 in 110 s with them. The damped results' mean closeness is 0.71× the undamped ones' (geometric mean). Also
+tried: 0.01 × the RMS (41, without flip rows), a fixed μ of 1e-4 (40; 1e-3 stalls near the tolerance), damping only
+the planarity rows (39), Marquardt's ``μ diag`` scaling (41, no faster).
 
 Far moves: where the linearized planarity and guard rows of a few vertices nearly contradict each other, the
 minimum-norm step moves those vertices tens of edges (up to 150 on the 200k-triangle benchmark patch, seed 1, where
@@ -66,6 +79,8 @@ _RELEASES = 3  # re-solves per iteration after releasing guard rows that hold th
 _BACKTRACKS = 10  # step halvings per solve
 _MIN_T = 1.0 / 64  # optimize phase: the smallest fraction of the optimality step tried
 _FAR = 10.0  # a vertex moving this many times the 99th percentile of the moves (and over _TRUST) moves far
+_DAMPING = 0.03  # damping of the system: this × the RMS residual of the planarity rows (relative to its diagonal)
+_DAMP_FLOOR = 1e-10  # ... and at least this (an exactly singular system still factors)
 _CHORDS = 2  # chord corrections (same factorization) of an accepted step still above the tolerance
 
 
@@ -95,7 +110,7 @@ class Step(NamedTuple):
     accepted: State | None  # the accepted trial, or None
     singular: bool  # the system could not be factored
     fact: Factorization | None  # of the last solve
-    guard_sel: np.ndarray  # (c + e + m + i,) bool, guard items with a row in the last solve
+    guard_sel: np.ndarray  # (2c + e + m + i + m,) bool, guard items with a row in the last solve
     t: float  # fraction of the optimality step taken
     beta: float  # fraction of the feasibility step taken
     df: np.ndarray | None
@@ -116,12 +131,23 @@ def factor_spd(S):
         return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 
+def damping(r: np.ndarray) -> float:
+    """Levenberg–Marquardt damping of the system, relative to its mean diagonal, from the residuals ``r`` of the
+    planarity (and conical) rows: :data:`_DAMPING` × their RMS, at least :data:`_DAMP_FLOOR`.
+
+    >>> damping(np.zeros(4)), damping(np.full(4, 0.02))
+    (1e-10, 0.0006)
+    """
+    rms = float(np.sqrt(np.mean(r * r))) if len(r) else 0.0
+    return max(_DAMP_FLOOR, _DAMPING * rms)
+
+
 def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize) -> Directions | None:
     """Solve the system with guard rows at the corners ``sel`` (``None`` when it is singular even damped)."""
-    J, r, n_hard = hard_rows(prob, X, sel, guard.item_tgt[sel])
+    J, r, n_hard = hard_rows(prob, X, sel, guard.item_tgt[sel], guard.flip_normals)
     JG = times_blocks(J, Gb)
     S = (JG @ J.T).tocsc()
-    eps = 1e-10 * max(float(S.diagonal().mean()), 1e-300)  # relative damping (the rows are scale-free)
+    eps = damping(r[:n_hard]) * max(float(S.diagonal().mean()), 1e-300)  # relative (the rows are scale-free)
     try:
         lu = factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
     except RuntimeError:  # singular even when damped (coincident vertices, collapsed faces)
@@ -139,10 +165,10 @@ def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize) -> Directions | None
 def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release_far=False) -> Step:
     """One iteration's step from ``cur`` (soft terms ``soft = (g, H, f)`` at ``cur.X``).
 
-    ``t`` is the fraction of the optimality step to try first (0 outside the optimize phase). ``sticky`` ``(c + e +
-    m,) bool`` holds the guard items whose rows are kept from step to step; it is updated in place (items added
-    after an unhealthy trial, rows found loose released). ``release_far``: release the guard rows of vertices the
-    step would move far (see the module docstring).
+    ``t`` is the fraction of the optimality step to try first (0 outside the optimize phase). ``sticky``
+    ``(2c + e + m + i + m,) bool`` holds the guard items whose rows are kept from step to step; it is updated in
+    place (items added after an unhealthy trial, rows found loose released). ``release_far``: release the guard
+    rows of vertices the step would move far (see the module docstring).
     """
     X = cur.X
     g, H, f_cur = soft

@@ -191,6 +191,8 @@ def _goal_cases():
     sel_e = np.arange(0, len(E), 2)
     sel_f = np.arange(len(F))
     pairs = _face_pairs(F)
+    Rf = rng.normal(size=(len(sel_f), 3))  # a fixed unit "reference normal" per face
+    Rf /= np.linalg.norm(Rf, axis=1)[:, None]
     cases = {
         "planarity": lambda X: goals.planarity_block(X, F, 1.0),
         "closeness": lambda X: goals.closeness_block(X, idx, Cp, Np, 1.0),
@@ -205,6 +207,7 @@ def _goal_cases():
         "edge guard": lambda X: goals.edge_guard_block(X, E, sel_e, 0.5),
         "area guard": lambda X: goals.area_guard_block(X, F, sel_f, 0.4),
         "fold guard": lambda X: goals.fold_guard_block(X, F, pairs, -0.5),
+        "flip guard": lambda X: goals.flip_guard_block(X, F, sel_f, Rf, 0.1),
     }
     return V, cases
 
@@ -224,7 +227,7 @@ def _face_pairs(F):
 
 
 GOALS = ["planarity", "closeness", "start", "fairness polylines", "fairness laplacian", "edge length", "area",
-         "conical", "turn guard", "sharpness guard", "edge guard", "area guard", "fold guard"]
+         "conical", "turn guard", "sharpness guard", "edge guard", "area guard", "fold guard", "flip guard"]
 
 
 @pytest.mark.parametrize("goal", GOALS)

@@ -176,6 +176,28 @@ def test_watched_rows_are_near_the_bound_or_sticky():
     assert watched_rows(guard, values, sticky).nonzero()[0].tolist() == [3, 7, 2 * c + 2]
 
 
+def test_a_face_turning_on_edge_gets_a_flip_row():
+    V, F = _grid(3)
+    prob, guard = _problem(V, F, reference=(V, F))
+    m, c, e, i = len(F), len(prob.corners.v), len(prob.E), len(prob.inner_faces)
+    base = 2 * c + e + m + i  # items: sharpness, turns, edges, faces, hinges, then flips
+    assert guard.n_items == base + m and guard.item_on[base:].all()
+    cur = _state(prob, guard, prob.X0)
+    assert np.allclose(cur.values[base:], 1.0)  # flat grid on itself: every normal along the reference's
+    X = prob.X0.copy()
+    X[[6, 10], 2] += 6.0  # the centre face (5, 6, 10, 9) tilts by atan(6) = 80.5°: n · r = 0.164 < sin 10°
+    st = _state(prob, guard, X)
+    assert st.values[base + 4] == pytest.approx(math.cos(math.atan(6.0)), abs=1e-9)
+    sel = np.flatnonzero(watched_rows(guard, st.values, np.zeros(guard.n_items, bool)))
+    assert base + 4 in sel.tolist()
+    J, r, n_hard = hard_rows(prob, X, sel, guard.item_tgt[sel], guard.flip_normals)
+    k = n_hard + sel.tolist().index(base + 4)
+    assert r[k] == 0.0  # above its target (sin 5°): the row holds it, it may not turn further
+    assert set(J[k].indices // 3) == {5, 6, 9, 10}
+    # the row's gradient points toward standing the face back up: lowering the lifted corners raises n · r
+    assert float(J[k].toarray().reshape(-1, 3)[[6, 10], 2].sum()) < 0.0
+
+
 # ----------------------------------------------------------------------------------------------- phases
 
 
