@@ -19,15 +19,17 @@ ones, and the minimum-norm correction of a noisy net sheared it (60² grid, ±3 
 restore, 75° after optimize, 10 iterations; in the plain metric 70° after restore, 84° after optimize, 4
 iterations). With a reference the surface decides: its stiff metric stays (conjugate nets must move within it).
 
-When the panel-health guard holds the restore phase (accepted steps under a quarter of the Gauss-Newton step, or
-no healthy step at all), the closeness stiffness is relaxed (÷3 at a time, to 1/100 of the given one), then, where
-the caller allows it (``relaxed_guard``), the guard's share of the input's own values: a stiff closeness metric
-leaves the planarity correction only the directions within the surface, where it shears the net into the guard.
-Held at that floor, a step that would move a few vertices far (their linearized rows nearly contradict each
-other) first re-solves with their guard rows released (:mod:`components.planarize.step`): on the 200k-triangle
-benchmark patch, seed 1, the restore phase crawled at β 0.001-0.04 for 100 iterations (1.8e-3) and now converges in
-62. The optimize phase runs at the full stiffness again and pulls the planar mesh back toward the surface; an optimize
-step blocked by the planarity band is followed by a polish and another optimize phase (up to ``_OPT_ROUNDS``).
+When the panel-health guard holds the restore phase (accepted steps under a quarter of the Gauss-Newton step, or no
+healthy step at all), the closeness stiffness is relaxed (÷3 at a time, to 1/100 of the given one), then, where the
+caller allows it (``relaxed_guard``), the guard's share of the input's own values: a stiff closeness metric leaves
+the planarity correction only the directions within the surface, where it shears the net into the guard. Held at
+that floor, a step that would move a few vertices far (their linearized rows nearly contradict each other) first
+re-solves with their guard rows released (:mod:`components.planarize.step`): on the 200k-triangle benchmark patch,
+seed 1, the restore phase crawled at β 0.001-0.04 for 100 iterations (1.8e-3) and now converges in 62. A restore or
+polish iteration whose damped step (:func:`components.planarize.step.damping`) finds no acceptable trial tries the
+undamped one before anything else gives way. The optimize phase runs at the full stiffness again and pulls the
+planar mesh back toward the surface; an optimize step blocked by the planarity band is followed by a polish and
+another optimize phase (up to ``_OPT_ROUNDS``).
 
 Example
 -------
@@ -189,6 +191,8 @@ def iterate(prob, guard, t0: float) -> Run:
         release_far = run.phase == "restore" and run.held >= 1 and not _can_relax_closeness(prob, run)
         step = solve_step(prob, run.guard, run.cur, soft, run.sticky, run.t_opt if optimize else 0.0, optimize,
                           release_far)
+        if step.accepted is None and not step.singular and not optimize:  # no damped step: Gauss-Newton's
+            step = solve_step(prob, run.guard, run.cur, soft, run.sticky, 0.0, False, release_far, damped=False)
         if step.singular:
             run.stop_reason = "the linear system is singular (coincident vertices or collapsed faces in the mesh)"
             break

@@ -23,7 +23,10 @@ triangles, seeds 0-7, ×1, ×1000, +5e6, and the 20k benchmark's candidate: 41 r
 flip rows of :mod:`components.planarize.guard`, 41 converge in 48 CPU s; undamped, 39 in 90 s without the flip rows
 and 40 in 110 s with them. The damped results' mean closeness is 0.71× the undamped ones' (geometric mean). Also
 tried: 0.01 × the RMS (41, without flip rows), a fixed μ of 1e-4 (40; 1e-3 stalls near the tolerance), damping only
-the planarity rows (39), Marquardt's ``μ diag`` scaling (41, no faster).
+the planarity rows (39), Marquardt's ``μ diag`` scaling (41, no faster). Where the damped step finds no acceptable
+trial, the caller solves the iteration again undamped (``damped=False``, :mod:`components.planarize.phases`): on
+the dos K-net ``obj_anet__knet1.obj`` the damped step could not lower the worst face at its first iteration, the
+undamped one converges in 42.
 
 Far moves: where the linearized planarity and guard rows of a few vertices nearly contradict each other, the
 minimum-norm step moves those vertices tens of edges (up to 150 on the 200k-triangle benchmark patch, seed 1, where
@@ -69,7 +72,7 @@ from components.planarize.rows import hard_residual, hard_rows, inverse_metric, 
 
 log = logging.getLogger(__name__)
 
-__all__ = ["KAPPA", "Factorization", "Step", "solve_step", "predicted_gain", "factor_spd"]
+__all__ = ["KAPPA", "Factorization", "Step", "solve_step", "predicted_gain", "factor_spd", "damping"]
 
 KAPPA = 30.0  # optimize phase: planarity may rise to κ × tolerance while the soft objective is lowered
 _TRUST = 1.0  # no vertex moves more than this (mean edges) in one iteration
@@ -142,12 +145,13 @@ def damping(r: np.ndarray) -> float:
     return max(_DAMP_FLOOR, _DAMPING * rms)
 
 
-def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize) -> Directions | None:
+def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped=True) -> Directions | None:
     """Solve the system with guard rows at the corners ``sel`` (``None`` when it is singular even damped)."""
     J, r, n_hard = hard_rows(prob, X, sel, guard.item_tgt[sel], guard.flip_normals)
     JG = times_blocks(J, Gb)
     S = (JG @ J.T).tocsc()
-    eps = damping(r[:n_hard]) * max(float(S.diagonal().mean()), 1e-300)  # relative (the rows are scale-free)
+    mu = damping(r[:n_hard]) if damped else _DAMP_FLOOR
+    eps = mu * max(float(S.diagonal().mean()), 1e-300)  # relative (the rows are scale-free)
     try:
         lu = factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
     except RuntimeError:  # singular even when damped (coincident vertices, collapsed faces)
@@ -162,13 +166,14 @@ def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize) -> Directions | None
     return Directions(Factorization(J, JG, lu, Gb, n_hard), lam_f, df, lam_o, do)
 
 
-def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release_far=False) -> Step:
+def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release_far=False, damped=True) -> Step:
     """One iteration's step from ``cur`` (soft terms ``soft = (g, H, f)`` at ``cur.X``).
 
     ``t`` is the fraction of the optimality step to try first (0 outside the optimize phase). ``sticky``
     ``(2c + e + m + i + m,) bool`` holds the guard items whose rows are kept from step to step; it is updated in
     place (items added after an unhealthy trial, rows found loose released). ``release_far``: release the guard
-    rows of vertices the step would move far (see the module docstring).
+    rows of vertices the step would move far; ``damped``: damp the system (:func:`damping`; see the module
+    docstring).
     """
     X = cur.X
     g, H, f_cur = soft
@@ -181,7 +186,7 @@ def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release
     far_checked = not release_far
     while attempt < _GUARD_ATTEMPTS:
         sel = np.nonzero(guard_sel)[0]
-        d = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize)
+        d = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped)
         if d is None:
             return Step(None, True, fact, guard_sel, t, beta, None, None, None, failed)
         fact = d.fact

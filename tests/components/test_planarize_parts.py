@@ -287,3 +287,45 @@ def test_far_moving_vertices_lose_their_guard_rows_once(monkeypatch):
     assert len(at_v) == 4 and set(second) == set(first) - set(at_v)
     assert not sticky[at_v].any() and sticky[np.flatnonzero(prob.corners.v == 0)].all()
     assert all(set(at_v).isdisjoint(s) for s in calls[1:])
+
+
+def test_damping_follows_the_planarity_residual_and_vanishes_at_the_tolerance(monkeypatch):
+    """The system is damped by 0.03 × the RMS planarity residual (relative to its mean diagonal): a large warp gets
+    a damped step, which still lowers the score; at the tolerance the damping is the 1e-10 floor (Gauss-Newton)."""
+    import components.planarize.step as step_mod
+
+    assert step_mod.damping(np.zeros(5)) == 1e-10
+    assert step_mod.damping(np.full(5, 0.1)) == pytest.approx(0.003)
+    V, F = _grid(4, bump=0.3)
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    seen = []
+    real = step_mod.factor_spd
+    monkeypatch.setattr(step_mod, "factor_spd", lambda S: seen.append(S.diagonal()) or real(S))
+    soft = soft_terms(prob, cur.X)
+    step = solve_step(prob, guard, cur, soft, np.zeros(guard.n_items, bool), 0.0)
+    damped = seen[0]  # the first solve of each call: no guard rows yet, the same rows
+    seen.clear()
+    solve_step(prob, guard, cur, soft, np.zeros(guard.n_items, bool), 0.0, damped=False)
+    plain = seen[0]
+    _, r, n_hard = hard_rows(prob, cur.X, np.zeros(0, np.int64), np.zeros(0))
+    mu = 0.03 * math.sqrt(float(np.mean(r[:n_hard] ** 2)))
+    assert mu > 1e-4 and np.allclose(damped - plain, (mu - 1e-10) * plain.mean(), rtol=1e-6)
+    assert step.accepted is not None and step.accepted.score < cur.score
+
+
+def test_an_iteration_without_a_damped_step_tries_the_undamped_one(monkeypatch):
+    import components.planarize.phases as phases_mod
+
+    V, F = _grid(4, bump=0.1)
+    prob, guard = _problem(V, F, max_iterations=1)
+    real, calls = phases_mod.solve_step, []
+
+    def refuse_damped(*args, damped=True, **kw):
+        calls.append(damped)
+        step = real(*args, damped=damped, **kw)
+        return step._replace(accepted=None, failed=()) if damped else step
+
+    monkeypatch.setattr(phases_mod, "solve_step", refuse_damped)
+    run = iterate(prob, guard, time.perf_counter())
+    assert calls == [True, False] and run.it == 1 and run.best.score < run.start_score
