@@ -43,9 +43,10 @@ the planarizer's release of far-moving vertices): 20k 4.4 s → 3.8 s (field 1.2
 converged 9.0e-5, healthy, coverage 1.000), peak 1.5 GB: the candidate's two boundary modes are parametrized and
 extracted at the same time (771 MB with GHSERVER_THREADS=1).
 Session 11 (same machine; the planarizer's Levenberg-Marquardt damping and flip guard rows), session-10 code → today's
-in the same hour: 20k 4.0 s → 3.5 s (field 1.3, param 0.2, extract 0.7, planarize 1.5 → 1.1; same 1406-face
-candidate, 9.0e-5, healthy), 200k 44.0 s → 40.8 s (field 14.8, param 3.7, extract 5.9, planarize 18.1 → 15.6;
-converged 9.2e-5, healthy, coverage 1.000), peak 1.5 GB.
+in the same hour: 20k 3.7-4.1 s → 3.45-3.6 s (field 1.2-1.3, param 0.2, extract 0.7, planarize 1.5 → 1.1; same
+1406-face candidate, 9.0e-5, healthy), 200k 44.0 s → 39.1-40.8 s (field 14.3-14.8, param 3.6, extract 5.5-5.9,
+planarize 18.1 → 14.8-15.6; converged 9.2e-5, healthy, coverage 1.000), peak 1.5 GB. Issue #21's 3 s and 15 s are
+still not met.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
