@@ -239,32 +239,32 @@ def edge_guard_block(X: np.ndarray, E: np.ndarray, sel: np.ndarray, target) -> B
     return Block(L - target, rows, cols, vals, 1.0)
 
 
+def _area_vectors(X: np.ndarray, F: np.ndarray, faces: np.ndarray):
+    """Corners, Newell area vectors and areas of the faces ``F[faces]``, the vectors summed about each face's first
+    corner (no cancellation far from the origin)."""
+    C = face_corners(F[faces])
+    O = X[F[faces, 0]][C.face]
+    Avec = np.zeros((len(faces), 3))
+    np.add.at(Avec, C.face, 0.5 * np.cross(X[C.v] - O, X[C.next] - O))
+    return C, Avec, np.linalg.norm(Avec, axis=1)
+
+
+def _unit_normals(X: np.ndarray, F: np.ndarray, faces: np.ndarray):
+    """Corners, unit Newell normals and areas (at least 1e-300) of the faces ``F[faces]`` (:func:`_area_vectors`)."""
+    C, Avec, area = _area_vectors(X, F, faces)
+    area = np.maximum(area, 1e-300)
+    return C, Avec / area[:, None], area
+
+
 def area_guard_block(X: np.ndarray, F: np.ndarray, sel: np.ndarray, target) -> Block:
     """Face-area guard rows ``|A| − target`` (``A``: the Newell area vector) for the faces ``F[sel]``: no panel
     shrinks to nothing. The rows come face by face, each corner's three columns together."""
-    C = face_corners(F[sel])
-    q = len(sel)
-    O = X[F[sel, 0]][C.face]  # about the face's first corner: no cancellation far from the origin
-    P, Pn = X[C.v] - O, X[C.next] - O
-    Avec = np.zeros((q, 3))
-    np.add.at(Avec, C.face, 0.5 * np.cross(P, Pn))
-    area = np.linalg.norm(Avec, axis=1)
+    C, Avec, area = _area_vectors(X, F, sel)
     nrm = Avec / np.maximum(area, 1e-300)[:, None]
     g = 0.5 * np.cross(X[C.next] - X[C.prev], nrm[C.face])  # d|A|/dv = ½ (v_next − v_prev) × n
     rows = np.repeat(C.face, 3)
     cols = (3 * C.v[:, None] + np.arange(3)[None, :]).ravel()
     return Block(area - target, rows, cols, g.ravel(), 1.0)
-
-
-def _unit_normals(X: np.ndarray, F: np.ndarray, faces: np.ndarray):
-    """Corners, unit Newell normals and areas (at least 1e-300) of the faces ``F[faces]``, the area vectors summed
-    about each face's first corner (no cancellation far from the origin)."""
-    C = face_corners(F[faces])
-    O = X[F[faces, 0]][C.face]
-    Avec = np.zeros((len(faces), 3))
-    np.add.at(Avec, C.face, 0.5 * np.cross(X[C.v] - O, X[C.next] - O))
-    area = np.maximum(np.linalg.norm(Avec, axis=1), 1e-300)
-    return C, Avec / area[:, None], area
 
 
 def fold_guard_block(X: np.ndarray, F: np.ndarray, pairs: np.ndarray, target) -> Block:

@@ -352,8 +352,7 @@ def panel_health(prob, guard: PanelGuard, X, crossings: bool = True) -> Health:
     dots = einsum_sum3(*(n[f0] * n[f1] for n in Nc))
     if np.any(dots < -math.cos(guard.open_min)):
         failed.append("fold")
-    flips = np.ones(len(prob.F)) if guard.flip_on is None else \
-        einsum_sum3(*(n * guard.flip_normals[:, j] for j, n in enumerate(Nc)))
+    flips = _flip_dots(N, guard.flip_normals)
     if guard.flip_on is not None and np.any((flips < 0.0) & guard.flip_on):
         failed.append("flip")
     if not failed and crossings and new_crossings(prob, guard, X):
