@@ -64,6 +64,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from components.core.blas import single_blas_thread
 from components.core.checks import check_mesh, validate_mesh
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity, warping_height
 from components.core.mesh import edge_topology, face_normals, face_sizes, triangulate
@@ -107,6 +108,7 @@ class PlanarizeResult(NamedTuple):
     warnings: list[str]
 
 
+@single_blas_thread()  # sparse factorizations and the reduced solves' dense products: see components.core.blas
 def planarize_mesh(
     V, F, reference=None, *, closeness_weight: float = 1.0, start_weight: float = 0.0,
     fairness_weight: float = 0.01, fairness_mode: str = "polylines", edge_length_weight: float = 0.0,

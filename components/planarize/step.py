@@ -12,13 +12,13 @@ within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corne
 normals it pushed toward their bounds and solves again (later in the iteration: takes a shorter healthy step first);
 a trial that only crosses faces is shortened.
 
-Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` its mean diagonal and
-``μ = 0.03 ×`` the RMS residual of the planarity rows (:func:`damping`; at least 1e-10, which only keeps an exactly
-singular system factorable). Where the linearized planarity and guard rows nearly contradict each other, the
-undamped system's multipliers reach 1e10 and its step moves a few vertices tens of edges, so the step scaled to the
-trust region crawls; damped, such rows are met only in part while the residual is large, and as it vanishes near
-the tolerance the step becomes the Gauss-Newton step again (μ proportional to the residual keeps its fast final
-convergence). Measured on the saved conjugate-field candidates (``benchmarks/convergence.py --saved``, 8k and 20k
+Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` the mean diagonal of its
+planarity (and conical) rows and ``μ = 0.03 ×`` the RMS residual of the planarity rows (:func:`damping`; at least
+1e-10, which only keeps an exactly singular system factorable). Where the linearized planarity and guard rows nearly
+contradict each other, the undamped system's multipliers reach 1e10 and its step moves a few vertices tens of edges,
+so the step scaled to the trust region crawls; damped, such rows are met only in part while the residual is large,
+and as it vanishes near the tolerance the step becomes the Gauss-Newton step again (μ proportional to the residual
+keeps its fast final convergence). Measured on the saved conjugate-field candidates (``benchmarks/convergence.py --saved``, 8k and 20k
 triangles, seeds 0-7, ×1, ×1000, +5e6, and the 20k benchmark's candidate: 41 runs; CPU seconds): damped, with the
 flip rows of :mod:`components.planarize.guard`, 41 converge in 48 CPU s; undamped, 39 in 90 s without the flip rows
 and 40 in 110 s with them. The damped results' mean closeness is 0.71× the undamped ones' (geometric mean). Also
@@ -64,6 +64,7 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -84,6 +85,8 @@ _MIN_T = 1.0 / 64  # optimize phase: the smallest fraction of the optimality ste
 _FAR = 10.0  # a vertex moving this many times the 99th percentile of the moves (and over _TRUST) moves far
 _DAMPING = 0.03  # damping of the system: this × the RMS residual of the planarity rows (relative to its diagonal)
 _DAMP_FLOOR = 1e-10  # ... and at least this (an exactly singular system still factors)
+_REDUCE = 64  # guard rows released from a factored system that are solved with its factor (_Reduced), not anew
+_REDUCED_RES = 1e-8  # ... when the reduced solve's residual is within this share of the right-hand side's
 _CHORDS = 2  # chord corrections (same factorization) of an accepted step still above the tolerance
 
 
@@ -135,8 +138,8 @@ def factor_spd(S):
 
 
 def damping(r: np.ndarray) -> float:
-    """Levenberg–Marquardt damping of the system, relative to its mean diagonal, from the residuals ``r`` of the
-    planarity (and conical) rows: :data:`_DAMPING` × their RMS, at least :data:`_DAMP_FLOOR`.
+    """Levenberg–Marquardt damping of the system, relative to the mean diagonal of its planarity rows, from the
+    residuals ``r`` of the planarity (and conical) rows: :data:`_DAMPING` × their RMS, at least :data:`_DAMP_FLOOR`.
 
     >>> damping(np.zeros(4)), damping(np.full(4, 0.02))
     (1e-10, 0.0006)
@@ -145,25 +148,113 @@ def damping(r: np.ndarray) -> float:
     return max(_DAMP_FLOOR, _DAMPING * rms)
 
 
-def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped=True) -> Directions | None:
-    """Solve the system with guard rows at the corners ``sel`` (``None`` when it is singular even damped)."""
+class _Reduced:
+    """The factor of a factored system ``S λ = b`` with some of its rows and columns ``drop`` left out, without a new
+    factorization (the guard rows found loose are released from the system just solved).
+
+    The reduced system ``S_KK λ_K = b_K`` (``K``: the kept rows) is the full one with ``λ_D = 0`` held by
+    multipliers ``z``: ``S λ + E z = b``, ``Eᵀ λ = 0`` (``E``: the unit columns of ``D``), so
+    ``z = (Eᵀ S⁻¹ E)⁻¹ Eᵀ S⁻¹ b`` and ``λ = S⁻¹ (b − E z)`` (``b_D`` is arbitrary, it only changes ``z``). Costs
+    ``|D|`` back-substitutions once and two per right-hand side.
+
+    Its round-off grows with the condition of the full ``S``, which is far worse than the reduced one's where the
+    dropped rows nearly depend on the kept ones (1e9 against 1e4 measured near the tolerance): every solve takes one
+    step of iterative refinement on the reduced system ``S_KK = J_K G J_Kᵀ + ε I`` (``JG, J``: its rows), which brings
+    the error back to a fresh factor's. Unrefined, the optimize phase's step (a small difference of large terms) of
+    the same noisy grid at ×1 and ×0.001 differed by 1e-3 of itself; :func:`_directions` also checks the residual.
+    """
+
+    def __init__(self, lu, keep: np.ndarray, drop: np.ndarray, J, JG, eps: float):
+        self.lu, self.keep, self.drop, self.J, self.JG, self.eps = lu, keep, drop, J, JG, eps
+        self.shape = (len(keep), len(keep))
+        E = np.zeros((lu.shape[0], len(drop)))
+        E[drop, np.arange(len(drop))] = 1.0
+        self.Z = lu.solve(E)  # S⁻¹ E
+        self.C = sla.cho_factor(self.Z[drop], check_finite=False)  # Eᵀ S⁻¹ E, a principal block of S⁻¹: SPD
+
+    def _solve(self, b):
+        full = np.zeros(self.lu.shape[0])
+        full[self.keep] = b
+        x = self.lu.solve(full)
+        x -= self.Z @ sla.cho_solve(self.C, x[self.drop], check_finite=False)
+        return x[self.keep]
+
+    def residual(self, x, b):
+        """``S_KK x − b``."""
+        return self.JG @ (self.J.T @ x) + self.eps * x - b
+
+    def solve(self, b):
+        x = self._solve(b)
+        return x - self._solve(self.residual(x, b))
+
+
+class _Base(NamedTuple):
+    """The last system of this step factored in full: its guard items, factorization, damping and rows' residuals."""
+
+    sel: np.ndarray
+    fact: Factorization
+    eps: float
+    r: np.ndarray
+
+
+def _reduced(base: _Base, sel) -> tuple[Factorization, np.ndarray] | None:
+    """The system of the guard items ``sel`` (a subset of the base's, fewer by 1 to :data:`_REDUCE`) solved with the
+    base's factor (:class:`_Reduced`): ``(factorization, residuals)``, or None when it does not apply or its residual
+    is not small."""
+    in_base = np.isin(base.sel, sel, assume_unique=True)
+    n_drop = len(base.sel) - int(in_base.sum())
+    if not 0 < n_drop <= _REDUCE or int(in_base.sum()) != len(sel):
+        return None
+    f = base.fact
+    keep = np.concatenate([np.arange(f.n_hard), f.n_hard + np.flatnonzero(in_base)])
+    drop = f.n_hard + np.flatnonzero(~in_base)
+    J, JG = f.J[keep], f.JG[keep]
+    try:
+        red = _Reduced(f.lu, keep, drop, J, JG, base.eps)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    return Factorization(J, JG, red, f.Gb, f.n_hard), base.r[keep]
+
+
+def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped=True, base: _Base | None = None):
+    """Solve the system with guard rows at the corners ``sel`` (``None`` when it is singular even damped).
+
+    With ``base`` (this step's last full factorization, at the same ``X``) a system whose guard rows are the base's
+    less a few is solved with the base's factor (:class:`_Reduced`) when the residual of that solve is small.
+    Returns ``(directions, base)``: the full factorization in use after this solve."""
+    if base is not None:
+        got = _reduced(base, sel)
+        if got is not None:
+            fact, r = got
+            lam_f = fact.lu.solve(-r)
+            res = fact.lu.residual(lam_f, -r)
+            if np.isfinite(lam_f).all() and float(np.abs(res).max()) <= _REDUCED_RES * float(np.abs(r).max()):
+                return _finish(fact, lam_f, gf, Ggf, optimize), base
     J, r, n_hard = hard_rows(prob, X, sel, guard.item_tgt[sel], guard.flip_normals)
     JG = times_blocks(J, Gb)
     S = (JG @ J.T).tocsc()
     mu = damping(r[:n_hard]) if damped else _DAMP_FLOOR
-    eps = mu * max(float(S.diagonal().mean()), 1e-300)  # relative (the rows are scale-free)
+    # relative (the rows are scale-free) to the planarity rows' diagonal, which the guard rows in the system do not
+    # change: a system with rows released is the same system less those rows (see _Reduced)
+    eps = mu * max(float(S.diagonal()[:n_hard].mean()) if n_hard else float(S.diagonal().mean()), 1e-300)
     try:
         lu = factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
     except RuntimeError:  # singular even when damped (coincident vertices, collapsed faces)
-        return None
-    lam_f = lu.solve(-r)
+        return None, base
+    fact = Factorization(J, JG, lu, Gb, n_hard)
+    return _finish(fact, lu.solve(-r), gf, Ggf, optimize), _Base(np.asarray(sel), fact, eps, r)
+
+
+def _finish(fact: Factorization, lam_f, gf, Ggf, optimize) -> Directions:
+    """The steps of the feasibility multipliers ``lam_f`` and, optimizing, the optimality solve."""
+    lu, JG = fact.lu, fact.JG
     df = (JG.T @ lam_f).reshape(-1, 3)
     if optimize:
         lam_o = lu.solve(JG @ gf)
         do = (JG.T @ lam_o - Ggf).reshape(-1, 3)
     else:
         lam_o, do = np.zeros_like(lam_f), np.zeros_like(df)
-    return Directions(Factorization(J, JG, lu, Gb, n_hard), lam_f, df, lam_o, do)
+    return Directions(fact, lam_f, df, lam_o, do)
 
 
 def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release_far=False, damped=True) -> Step:
@@ -184,9 +275,10 @@ def solve_step(prob, guard, cur: State, soft, sticky, t, optimize=False, release
     accepted, fact, beta, d, f_new, failed = None, None, 1.0, None, None, ()
     attempt = releases = 0
     far_checked = not release_far
+    base = None
     while attempt < _GUARD_ATTEMPTS:
         sel = np.nonzero(guard_sel)[0]
-        d = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped)
+        d, base = _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped, base)
         if d is None:
             return Step(None, True, fact, guard_sel, t, beta, None, None, None, failed)
         fact = d.fact

@@ -270,13 +270,13 @@ def test_far_moving_vertices_lose_their_guard_rows_once(monkeypatch):
     real, calls = step_mod._directions, []
 
     def far_first(prob, guard, X, sel, *args):
-        d = real(prob, guard, X, sel, *args)
+        d, base = real(prob, guard, X, sel, *args)
         calls.append(np.array(sel))
         if len(calls) == 1:
             df = np.full_like(d.df, 0.01)
             df[v] = [30.0, 0.0, 0.0]
             d = d._replace(df=df, lam_f=np.abs(d.lam_f) + 1.0)  # no row is loose: only the far move releases
-        return d
+        return d, base
 
     monkeypatch.setattr(step_mod, "_directions", far_first)
     monkeypatch.setattr(step_mod, "watched_rows", lambda guard, values, sticky: sticky.copy())  # rows = the kept ones
@@ -287,6 +287,46 @@ def test_far_moving_vertices_lose_their_guard_rows_once(monkeypatch):
     assert len(at_v) == 4 and set(second) == set(first) - set(at_v)
     assert not sticky[at_v].any() and sticky[np.flatnonzero(prob.corners.v == 0)].all()
     assert all(set(at_v).isdisjoint(s) for s in calls[1:])
+
+
+def _solve_with(step_mod, prob, guard, cur, sel, base=None):
+    g, H, _ = soft_terms(prob, cur.X)
+    Gb = inverse_metric(prob, H, cur.tangents)
+    Ggf = np.einsum("nij,nj->ni", Gb, g).ravel()
+    return step_mod._directions(prob, guard, cur.X, sel, Gb, g.ravel(), Ggf, True, True, base)
+
+
+@pytest.mark.parametrize("n_drop", [1, 7, 64])
+def test_released_guard_rows_are_solved_with_the_factor_they_were_released_from(monkeypatch, n_drop):
+    """Guard rows released from a factored system (loose rows, far vertices) are solved with its factor, not a new
+    one, and give the steps a fresh factorization of the smaller system gives (feasibility and optimality)."""
+    import components.planarize.step as step_mod
+
+    V, F = _grid(8, bump=0.2)
+    V[:, 2] += 0.05 * np.sin(3.0 * V[:, 0]) * np.cos(2.0 * V[:, 1])
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    c, e = len(prob.corners.v), len(prob.E)
+    sel = np.concatenate([np.arange(0, c, 3), 2 * c + np.arange(0, e, 2)])  # corners and edges
+    full, base = _solve_with(step_mod, prob, guard, cur, sel)
+    drop = np.random.default_rng(1).choice(len(sel), n_drop, replace=False)
+    kept = np.delete(sel, drop)
+    fresh, _ = _solve_with(step_mod, prob, guard, cur, kept)
+    factored = []
+    real = step_mod.factor_spd
+    monkeypatch.setattr(step_mod, "factor_spd", lambda S: factored.append(S.shape) or real(S))
+    reduced, base_after = _solve_with(step_mod, prob, guard, cur, kept, base)
+    assert factored == [] and base_after is base and reduced.fact.J.shape == fresh.fact.J.shape
+    for a, b in ((reduced.df, fresh.df), (reduced.do, fresh.do), (reduced.lam_f, fresh.lam_f)):
+        assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
+    assert np.abs(full.df - fresh.df).max() > 1e-6 * np.abs(fresh.df).max()  # the released rows did matter
+    # a chord's or the next iteration's solve with the reduced factor: the reduced system's solution
+    rhs = np.random.default_rng(2).normal(size=reduced.fact.J.shape[0])
+    assert np.allclose(reduced.fact.lu.solve(rhs), fresh.fact.lu.solve(rhs), rtol=1e-9, atol=1e-12)
+    # more released rows than _REDUCE, or rows added: a new factorization
+    _solve_with(step_mod, prob, guard, cur, sel[: len(sel) - step_mod._REDUCE - 1], base)
+    _solve_with(step_mod, prob, guard, cur, np.append(kept, 2 * c + 1), base)
+    assert len(factored) == 2
 
 
 def test_damping_follows_the_planarity_residual_and_vanishes_at_the_tolerance(monkeypatch):
