@@ -12,9 +12,10 @@ within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corne
 normals it pushed toward their bounds and solves again (later in the iteration: takes a shorter healthy step first);
 a trial that only crosses faces is shortened.
 
-Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` the mean diagonal of its
-planarity (and conical) rows and ``μ = 0.03 ×`` the RMS residual of the planarity rows (:func:`damping`; at least
-1e-10, which only keeps an exactly singular system factorable). Where the linearized planarity and guard rows nearly
+Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` its mean diagonal (of
+the system factored; guard rows released from it keep its ``d``, see :class:`_Reduced`) and ``μ = 0.03 ×`` the RMS
+residual of the planarity rows (:func:`damping`; at least 1e-10, which only keeps an exactly singular system
+factorable). Where the linearized planarity and guard rows nearly
 contradict each other, the undamped system's multipliers reach 1e10 and its step moves a few vertices tens of edges,
 so the step scaled to the trust region crawls; damped, such rows are met only in part while the residual is large,
 and as it vanishes near the tolerance the step becomes the Gauss-Newton step again (μ proportional to the residual
@@ -138,8 +139,8 @@ def factor_spd(S):
 
 
 def damping(r: np.ndarray) -> float:
-    """Levenberg–Marquardt damping of the system, relative to the mean diagonal of its planarity rows, from the
-    residuals ``r`` of the planarity (and conical) rows: :data:`_DAMPING` × their RMS, at least :data:`_DAMP_FLOOR`.
+    """Levenberg–Marquardt damping of the system, relative to its mean diagonal, from the residuals ``r`` of the
+    planarity (and conical) rows: :data:`_DAMPING` × their RMS, at least :data:`_DAMP_FLOOR`.
 
     >>> damping(np.zeros(4)), damping(np.full(4, 0.02))
     (1e-10, 0.0006)
@@ -158,10 +159,12 @@ class _Reduced:
     ``|D|`` back-substitutions once and two per right-hand side.
 
     Its round-off grows with the condition of the full ``S``, which is far worse than the reduced one's where the
-    dropped rows nearly depend on the kept ones (1e9 against 1e4 measured near the tolerance): every solve takes one
-    step of iterative refinement on the reduced system ``S_KK = J_K G J_Kᵀ + ε I`` (``JG, J``: its rows), which brings
-    the error back to a fresh factor's. Unrefined, the optimize phase's step (a small difference of large terms) of
-    the same noisy grid at ×1 and ×0.001 differed by 1e-3 of itself; :func:`_directions` also checks the residual.
+    dropped rows nearly depend on the kept ones (1e9 against 1e4 measured near the tolerance): every solve takes two
+    steps of iterative refinement on the reduced system ``S_KK = J_K G J_Kᵀ + ε I`` (``JG, J``: its rows), which
+    bring the error back to a fresh factor's. Unrefined, the optimize phase's step (a small difference of large terms)
+    of the same noisy grid at ×1 and ×0.001 differed by 1e-3 of itself, and the results by 1e-4 of an edge; with one
+    step by 8e-7 of an edge, with two by 1e-13, as with a new factor each time. :func:`_directions` also checks the
+    residual.
     """
 
     def __init__(self, lu, keep: np.ndarray, drop: np.ndarray, J, JG, eps: float):
@@ -185,7 +188,9 @@ class _Reduced:
 
     def solve(self, b):
         x = self._solve(b)
-        return x - self._solve(self.residual(x, b))
+        for _ in range(2):  # iterative refinement (see above)
+            x = x - self._solve(self.residual(x, b))
+        return x
 
 
 class _Base(NamedTuple):
@@ -234,9 +239,7 @@ def _directions(prob, guard, X, sel, Gb, gf, Ggf, optimize, damped=True, base: _
     JG = times_blocks(J, Gb)
     S = (JG @ J.T).tocsc()
     mu = damping(r[:n_hard]) if damped else _DAMP_FLOOR
-    # relative (the rows are scale-free) to the planarity rows' diagonal, which the guard rows in the system do not
-    # change: a system with rows released is the same system less those rows (see _Reduced)
-    eps = mu * max(float(S.diagonal()[:n_hard].mean()) if n_hard else float(S.diagonal().mean()), 1e-300)
+    eps = mu * max(float(S.diagonal().mean()), 1e-300)  # relative (the rows are scale-free); kept for released rows
     try:
         lu = factor_spd(S + sp.identity(S.shape[0], format="csc") * eps)
     except RuntimeError:  # singular even when damped (coincident vertices, collapsed faces)
