@@ -46,6 +46,13 @@ Session 11 (same machine), ``--saved``: the planarizer's steps damped in proport
 (Levenberg-Marquardt, components/planarize/step.py ``damping``) and flip guard rows: 24 of 24 in 30.1 CPU s (710
 iterations, 4036 factorizations) and 16 of 16 in 20.9 s (500, 2777). The 200k patch: all four saved candidates
 converge (seed 0 ×1 36 iterations, ×1000 53, +5e6 22; seed 1 ×1 42).
+
+Session 12 (same machine), ``--saved``, session-11 code → today's in the same hour, one run after the other: guard
+rows released from a factored system solved with its factor (components/planarize/step.py ``_Reduced``) instead of
+a new one: 24 of 24 in 22.7 → 18.9 CPU s (710 → 688 iterations, 4036 → 1981 factorizations) and 16 of 16 in 15.9 →
+13.7 s (500 → 506, 2777 → 1450). Mean closeness 1.01× the session-11 results' (geometric mean over these 40 and the
+20k benchmark's, face-scan and inspired candidates; 95 % interval 0.95-1.08). The four 200k candidates: 4 of 4 in
+59.7 → 45.5 CPU s (214 → 106 factorizations on the benchmark's; closeness lower on all four).
 """
 from __future__ import annotations
 

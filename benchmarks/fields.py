@@ -47,6 +47,11 @@ in the same hour: 20k 3.7-4.1 s → 3.45-3.6 s (field 1.2-1.3, param 0.2, extrac
 1406-face candidate, 9.0e-5, healthy), 200k 44.0 s → 39.1-40.8 s (field 14.3-14.8, param 3.6, extract 5.5-5.9,
 planarize 18.1 → 14.8-15.6; converged 9.2e-5, healthy, coverage 1.000), peak 1.5 GB. Issue #21's 3 s and 15 s are
 still not met.
+Session 12 (same machine; guard rows released from a factored system solved with its factor, not a new one),
+session-11 code → today's in the same hour: 20k 3.16 s → 2.97-3.01 s (field 1.0, param 0.2, extract 0.6, planarize
+1.0 → 1.0; same 1406-face candidate, 9.6e-5, healthy; the planarizer takes 27 iterations instead of 26 on this
+candidate, 81 factorizations instead of 132), 200k 35.6 s → 32.7 s (planarize 13.4 → 10.6; converged 9.1e-5,
+healthy, coverage 1.000), peak 1.5 GB. 20k is at the 3 s line, not under it with a margin; 200k is 2.2x from 15 s.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
