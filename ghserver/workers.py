@@ -30,6 +30,7 @@ STARTUP_TIMEOUT = 120.0  # seconds a new worker may take to import numpy/scipy a
 CANCELLED = 499  # the status of a cancelled solve (never sent to a client: a job says "cancelled")
 PROGRESS_INTERVAL = 0.1  # seconds between two progress messages of a worker (at most)
 CANCEL_POLL = 0.05  # seconds between two looks at a solve's cancel flag
+_SEND_TRIES = 3  # workers a request is offered to when each dies before it takes the request
 
 
 def load_factory(spec: str):
@@ -311,20 +312,33 @@ class WorkerPool:
         limit = self.timeout if timeout is None else float(timeout)
         if self._closed:
             return err(503, "server is shutting down")
-        try:
-            w = self._idle_worker(wait if wait is not None else self.queue_timeout)
-        except queue.Empty:
-            return err(503, "all solver processes are busy; try again")
-        try:
-            if not w.wait_ready(STARTUP_TIMEOUT):
+        for tries in range(_SEND_TRIES):
+            try:
+                w = self._idle_worker(wait if wait is not None else self.queue_timeout)
+            except queue.Empty:
+                return err(503, "all solver processes are busy; try again")
+            try:
+                if not w.wait_ready(STARTUP_TIMEOUT):
+                    self._replace(w)
+                    return err(500, "a solver process failed to start (see the server log)")
+                if cancel is not None and cancel():
+                    self._idle.put(w)
+                    return err(CANCELLED, "the solve was cancelled")
+                w.conn.send_bytes(json.dumps({"uri": uri, "progress": progress is not None}).encode())
+                w.conn.send_bytes(raw)
+                break
+            except (EOFError, OSError) as exc:
+                # it died after the liveness check and before it took the request (killed, out of memory while
+                # idle): nothing of the request reached it, so another worker gets it
+                w.process.join(timeout=1.0)
+                log.warning("worker %d died before it took a request (exit code %s, %s): replaced",
+                            w.process.pid, w.process.exitcode, type(exc).__name__)
                 self._replace(w)
-                return err(500, "a solver process failed to start (see the server log)")
-            if cancel is not None and cancel():
-                self._idle.put(w)
-                return err(CANCELLED, "the solve was cancelled")
+                if tries == _SEND_TRIES - 1:
+                    return err(500, "the solver processes died before they could take the request (see the "
+                                    "server log); the server is fine, try again")
+        try:
             started_at = time.monotonic()
-            w.conn.send_bytes(json.dumps({"uri": uri, "progress": progress is not None}).encode())
-            w.conn.send_bytes(raw)
             if started is not None:
                 started()
             while True:

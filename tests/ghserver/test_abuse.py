@@ -373,6 +373,21 @@ def test_a_worker_that_died_while_idle_is_replaced_before_dispatch(server):
     assert int(r.json()["values"][1]["InnerTree"]["{0}"][0]["data"]) != pid
 
 
+def test_a_worker_that_dies_after_the_liveness_check_passes_the_request_on(server, monkeypatch):
+    # the race the check above cannot close: the worker is killed between the check and the send (the OOM killer,
+    # an operator); the request never reached it, so a new worker solves it
+    (pid,) = server.pool.pids()
+    os.kill(pid, signal.SIGKILL)
+    while os.path.exists(f"/proc/{pid}") and "Z" not in open(f"/proc/{pid}/stat").read().split()[2]:
+        time.sleep(0.02)
+    (w,) = [w for w in server.pool._all if w.process.pid == pid]
+    monkeypatch.setattr(w.process, "is_alive", lambda: True)  # it looked alive when it was taken
+    body = json.dumps(hops_body("test/nap", hops_tree("seconds", ["0"]))).encode()
+    r = post(server, body)
+    assert r.status_code == 200, r.text
+    assert int(r.json()["values"][1]["InnerTree"]["{0}"][0]["data"]) != pid
+
+
 # ----------------------------------------------------------------------------------------------
 # every answer JSON
 
