@@ -340,6 +340,23 @@ def test_released_guard_rows_are_solved_with_the_factor_they_were_released_from(
     assert len(factored) == 2
 
 
+def test_a_reduced_solve_whose_residual_is_not_small_is_factored_anew(monkeypatch):
+    import components.planarize.step as step_mod
+
+    V, F = _grid(6, bump=0.2)
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    sel = np.arange(0, len(prob.corners.v), 2)
+    _, base = _solve_with(step_mod, prob, guard, cur, sel)
+    monkeypatch.setattr(step_mod, "_REDUCED_RES", 0.0)  # no residual is small enough
+    factored = []
+    real = step_mod.factor_spd
+    monkeypatch.setattr(step_mod, "factor_spd", lambda S: factored.append(S.shape) or real(S))
+    d, new_base = _solve_with(step_mod, prob, guard, cur, sel[1:], base)
+    assert len(factored) == 1 and new_base is not base and isinstance(d.fact.lu, type(base.fact.lu))
+    assert d.fact.J.shape[0] == base.fact.J.shape[0] - 1
+
+
 def test_damping_follows_the_planarity_residual_and_vanishes_at_the_tolerance(monkeypatch):
     """The system is damped by 0.03 × the RMS planarity residual (relative to its mean diagonal): a large warp gets
     a damped step, which still lowers the score; at the tolerance the damping is the 1e-10 floor (Gauss-Newton)."""
