@@ -12,22 +12,21 @@ within ``κ ×`` the tolerance. An unhealthy trial adds guard rows for the corne
 normals it pushed toward their bounds and solves again (later in the iteration: takes a shorter healthy step first);
 a trial that only crosses faces is shortened.
 
-Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` its mean diagonal (of
-the system factored; guard rows released from it keep its ``d``, see :class:`_Reduced`) and ``μ = 0.03 ×`` the RMS
-residual of the planarity rows (:func:`damping`; at least 1e-10, which only keeps an exactly singular system
-factorable). Where the linearized planarity and guard rows nearly
-contradict each other, the undamped system's multipliers reach 1e10 and its step moves a few vertices tens of edges,
-so the step scaled to the trust region crawls; damped, such rows are met only in part while the residual is large,
-and as it vanishes near the tolerance the step becomes the Gauss-Newton step again (μ proportional to the residual
-keeps its fast final convergence). Measured on the saved conjugate-field candidates (``benchmarks/convergence.py --saved``, 8k and 20k
-triangles, seeds 0-7, ×1, ×1000, +5e6, and the 20k benchmark's candidate: 41 runs; CPU seconds): damped, with the
-flip rows of :mod:`components.planarize.guard`, 41 converge in 48 CPU s; undamped, 39 in 90 s without the flip rows
-and 40 in 110 s with them. The damped results' mean closeness is 0.71× the undamped ones' (geometric mean). Also
-tried: 0.01 × the RMS (41, without flip rows), a fixed μ of 1e-4 (40; 1e-3 stalls near the tolerance), damping only
-the planarity rows (39), Marquardt's ``μ diag`` scaling (41, no faster). Where the damped step finds no acceptable
-trial, the caller solves the iteration again undamped (``damped=False``, :mod:`components.planarize.phases`): on
-the dos K-net ``obj_anet__knet1.obj`` the damped step could not lower the worst face at its first iteration, the
-undamped one converges in 42.
+Damping (Levenberg–Marquardt): the system is solved as ``(J G Jᵀ + μ d I) λ = rhs`` with ``d`` its mean diagonal (of the
+system factored; guard rows released from it keep its ``d``, see :class:`_Reduced`) and ``μ = 0.03 ×`` the RMS residual
+of the planarity rows (:func:`damping`; at least 1e-10, which only keeps an exactly singular system factorable). Where
+the linearized planarity and guard rows nearly contradict each other, the undamped system's multipliers reach 1e10 and
+its step moves a few vertices tens of edges, so the step scaled to the trust region crawls; damped, such rows are met
+only in part while the residual is large, and as it vanishes near the tolerance the step becomes the Gauss-Newton step
+again (μ proportional to the residual keeps its fast final convergence). Measured on the saved conjugate-field
+candidates (``benchmarks/convergence.py --saved``, 8k and 20k triangles, seeds 0-7, ×1, ×1000, +5e6, and the 20k
+benchmark's candidate: 41 runs; CPU seconds): damped, with the flip rows of :mod:`components.planarize.guard`, 41
+converge in 48 CPU s; undamped, 39 in 90 s without the flip rows and 40 in 110 s with them. The damped results' mean
+closeness is 0.71× the undamped ones' (geometric mean). Also tried: 0.01 × the RMS (41, without flip rows), a fixed μ of
+1e-4 (40; 1e-3 stalls near the tolerance), damping only the planarity rows (39), Marquardt's ``μ diag`` scaling (41, no
+faster). Where the damped step finds no acceptable trial, the caller solves the iteration again undamped
+(``damped=False``, :mod:`components.planarize.phases`): on the dos K-net ``obj_anet__knet1.obj`` the damped step could
+not lower the worst face at its first iteration, the undamped one converges in 42.
 
 Far moves: where the linearized planarity and guard rows of a few vertices nearly contradict each other, the
 minimum-norm step moves those vertices tens of edges (up to 150 on the 200k-triangle benchmark patch, seed 1, where
@@ -173,7 +172,6 @@ class _Reduced:
 
     def __init__(self, lu, keep: np.ndarray, drop: np.ndarray, J, JG, eps: float):
         self.lu, self.keep, self.drop, self.J, self.JG, self.eps = lu, keep, drop, J, JG, eps
-        self.shape = (len(keep), len(keep))
         E = np.zeros((lu.shape[0], len(drop)))
         E[drop, np.arange(len(drop))] = 1.0
         self.Z = lu.solve(E)  # S⁻¹ E
