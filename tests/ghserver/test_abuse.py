@@ -360,13 +360,24 @@ def test_result_cache_is_bounded_in_bytes_and_keeps_only_successes():
     assert cache.get("huge") is None and cache.bytes <= 1000
 
 
+def _kill_and_wait(pid: int, timeout: float = 5.0) -> None:
+    """SIGKILL `pid` and wait until it is a zombie or gone (reaped by anyone: the pool, multiprocessing's cleanup)."""
+    os.kill(pid, signal.SIGKILL)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                state = f.read().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError):
+            return
+        if state in "ZX":
+            return
+        time.sleep(0.02)
+
+
 def test_a_worker_that_died_while_idle_is_replaced_before_dispatch(server):
     (pid,) = server.pool.pids()
-    os.kill(pid, signal.SIGKILL)
-    deadline = time.monotonic() + 5
-    while time.monotonic() < deadline and os.path.exists(f"/proc/{pid}") and \
-            "Z" not in open(f"/proc/{pid}/stat").read().split()[2]:
-        time.sleep(0.02)
+    _kill_and_wait(pid)
     body = json.dumps(hops_body("test/nap", hops_tree("seconds", ["0"]))).encode()
     r = post(server, body)
     assert r.status_code == 200, r.text
@@ -377,9 +388,7 @@ def test_a_worker_that_dies_after_the_liveness_check_passes_the_request_on(serve
     # the race the check above cannot close: the worker is killed between the check and the send (the OOM killer,
     # an operator); the request never reached it, so a new worker solves it
     (pid,) = server.pool.pids()
-    os.kill(pid, signal.SIGKILL)
-    while os.path.exists(f"/proc/{pid}") and "Z" not in open(f"/proc/{pid}/stat").read().split()[2]:
-        time.sleep(0.02)
+    _kill_and_wait(pid)
     (w,) = [w for w in server.pool._all if w.process.pid == pid]
     monkeypatch.setattr(w.process, "is_alive", lambda: True)  # it looked alive when it was taken
     body = json.dumps(hops_body("test/nap", hops_tree("seconds", ["0"]))).encode()
