@@ -75,6 +75,10 @@ from components.core.mesh import edge_topology, read_mesh, remove_unreferenced  
 from components.fields.remesh import isotropic_remesh  # noqa: E402
 from forked import peak_mb, run_forked  # noqa: E402
 
+# every module the steps use, imported before the measured children fork, as a server's solver processes import
+# them when they start: a row times the step, not Python's imports (numba's compiled kernels load at import)
+import components.fields.pipeline  # noqa: E402,F401
+
 
 class Step(NamedTuple):
     name: str

@@ -141,6 +141,9 @@ def _serve(args) -> int:
              f"{cap:.0f} MB" if cap else "none",
              args.cache_size, args.cache_mb, args.max_body_mb, server.adj.connection_limit,
              ", API key required" if cfg.api_key else "")
+    from components.core import compiled
+
+    log.info("%s", compiled.status())
     if cfg.cluster:
         log.info("solves run on the Dask cluster %s (%d workers now)", cfg.cluster,
                  app.extensions["ghserver.pool"].workers())

@@ -29,6 +29,7 @@ O. Diamanti, A. Vaxman, D. Panozzo, O. Sorkine-Hornung, "Integrable PolyVector f
 """
 from __future__ import annotations
 
+import functools
 import logging
 from typing import NamedTuple
 
@@ -56,6 +57,7 @@ from components.core.errors import InputError
 from components.core.mesh import triangulate
 from components.core.parallel import concurrently, for_each
 from components.core.types import Lines, Mesh, Numbers, Points, Vectors
+from components.fields import conjugate_kernels as kernels
 
 log = logging.getLogger(__name__)
 
@@ -814,27 +816,63 @@ def _closest_conjugate(u, v, ls: _LocalStep, start=None):
     return pu, pv, np.mod(best, np.pi)
 
 
-def _search(blk: _Block, zu, zv, start):
-    """The best angle ``a`` of a block's faces and whether the pair's second assignment wins (``zu, zv``: the
-    current pair relative to ``p``; ``start``: the previous best angles or None)."""
+def _first_samples(zu, zv, start):
+    """The first samples of a block's search: angles ``a`` (rows of samples, one column per face), their cosines
+    and sines, and the first refinement step and level count. Cold (``start`` None): :data:`_GRID` angles over
+    ``[0, π)``; warm: the previous best angle and the current pair's (``arg zu``, ``arg zv``)."""
     n = len(zu)
-    cols = np.arange(n)
     if start is None:
         a = np.repeat((np.arange(_GRID) * (np.pi / _GRID))[:, None], n, axis=1)
-        step, levels = np.pi / _GRID, 3
-        ca, sa = np.cos(a), np.sin(a)
-    else:
-        step, levels = np.pi / 90.0, 2
-        # the rows start, arg zu, arg zv (np.angle is this arctan2), their cosines and sines
-        a, ca, sa = (np.empty((3, n)) for _ in range(3))
-        a[0] = start
-        np.cos(start, out=ca[0])
-        np.sin(start, out=sa[0])
-        for r, z in ((1, zu), (2, zv)):
-            np.arctan2(z.imag, z.real, out=a[r])
-            az = np.abs(z)
-            np.divide(z.real, az, out=ca[r])
-            np.divide(z.imag, az, out=sa[r])
+        return a, np.cos(a), np.sin(a), np.pi / _GRID, 3
+    # the rows start, arg zu, arg zv (np.angle is this arctan2), their cosines and sines
+    a, ca, sa = (np.empty((3, n)) for _ in range(3))
+    a[0] = start
+    np.cos(start, out=ca[0])
+    np.sin(start, out=sa[0])
+    for r, z in ((1, zu), (2, zv)):
+        np.arctan2(z.imag, z.real, out=a[r])
+        az = np.abs(z)
+        np.divide(z.real, az, out=ca[r])
+        np.divide(z.imag, az, out=sa[r])
+    return a, ca, sa, np.pi / 90.0, 2
+
+
+@functools.lru_cache(maxsize=4)
+def _level_offsets(step: float, levels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The refinement offsets ``(levels, k)`` of :func:`_search_numpy` from its first step, and their cosines and
+    sines (computed as that loop computes them)."""
+    out = np.empty((3, levels, len(_AROUND)))
+    for lev in range(levels):
+        d = (step * _AROUND)[:, None]
+        out[0, lev], out[1, lev], out[2, lev] = d[:, 0], np.cos(d)[:, 0], np.sin(d)[:, 0]
+        step /= 3.0
+    return out[0], out[1], out[2]
+
+
+def _search(blk: _Block, zu, zv, start):
+    """The best angle ``a`` of a block's faces and whether the pair's second assignment wins (``zu, zv``: the
+    current pair relative to ``p``; ``start``: the previous best angles or None): compiled where numba is
+    installed (:mod:`components.fields.conjugate_kernels`, the same results bit for bit), else
+    :func:`_search_numpy`."""
+    if kernels.search is None:
+        return _search_numpy(blk, zu, zv, start)
+    a, ca, sa, step, levels = _first_samples(zu, zv, start)
+    const = np.zeros(len(zu)) if blk.const is None else blk.const
+    faces = (blk.k1, blk.k2, blk.ar, blk.ai, blk.br, blk.bi)
+    b, odd = kernels.search(*faces, blk.smin, const, blk.tf, blk.tr, blk.ti, blk.tw, a, ca, sa,
+                            *_level_offsets(step, levels), _TIE)
+    swap = kernels.swaps(np.cos(b), np.sin(b), *faces)
+    odd = np.flatnonzero(odd)
+    if len(odd):  # samples within the tie margin, or NaN costs: the numpy search's own rules settle them
+        b[odd], swap[odd] = _search_numpy(_columns(blk, odd), zu[odd], zv[odd], None if start is None else start[odd])
+    return b, swap
+
+
+def _search_numpy(blk: _Block, zu, zv, start):
+    """:func:`_search` in numpy (the reference of the compiled kernels)."""
+    n = len(zu)
+    cols = np.arange(n)
+    a, ca, sa, step, levels = _first_samples(zu, zv, start)
     D, _ = _conjugate_cost(ca, sa, blk)
     j, bD = _best_sample(a, ca, sa, D, blk)
     at = j * n + cols  # the best sample's flat index

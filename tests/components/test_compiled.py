@@ -1,0 +1,91 @@
+"""The optional compiled kernels (numba) give the numpy code's results bit for bit, and step aside when disabled."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import components.fields.field as field_module
+from components.fields import conjugate_kernels as kernels
+from components.fields.field import _block, _closest_conjugate, _local_step, _search_numpy
+from tests.components.test_fields import _grid_triangles, _local_inputs
+
+ROOT = Path(__file__).resolve().parents[2]
+needs_numba = pytest.mark.skipif(kernels.search is None, reason="numba is not installed (the numpy code runs)")
+
+
+def _both(monkeypatch, fn):
+    """``fn()`` with the kernels, then with the numpy code."""
+    compiled = fn()
+    with monkeypatch.context() as m:
+        m.setattr(kernels, "search", None)
+        m.setattr(kernels, "swaps", None)
+        plain = fn()
+    return compiled, plain
+
+
+def _same(a, b):
+    return a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
+@needs_numba
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_compiled_local_step_is_the_numpy_one_bit_for_bit(monkeypatch, seed):
+    # random pairs and curvatures with flat, parabolic, umbilic and minimal faces and boundary tangents; cold, warm
+    # from random angles and warm from its own optimum (where the three first samples tie: the numpy rules settle)
+    u, v, p, k1, k2, tau = _local_inputs(5000, seed)
+    for t in (tau, None):
+        ls = _local_step(p, k1, k2, np.radians(25.0), t)
+        cold = _both(monkeypatch, lambda: _closest_conjugate(u, v, ls))
+        start = np.random.default_rng(seed + 10).uniform(0, np.pi, len(u))
+        warm = _both(monkeypatch, lambda: _closest_conjugate(u, v, ls, start=start))
+        pu, pv, a = cold[0]
+        own = _both(monkeypatch, lambda: _closest_conjugate(pu, pv, ls, start=a))
+        for compiled, plain in (cold, warm, own):
+            for x, y in zip(compiled, plain):
+                assert _same(x, y)
+
+
+@needs_numba
+def test_ties_and_nan_are_settled_by_the_numpy_rules(monkeypatch):
+    u, v, p, k1, k2, tau = _local_inputs(2000, 3)
+    ls = _local_step(p, k1, k2, np.radians(25.0), tau)
+    bad = u.copy()
+    bad[:7] = np.nan  # NaN costs: np.argmin's rule
+    for x, y in zip(*_both(monkeypatch, lambda: _closest_conjugate(bad, v, ls))):
+        assert _same(x, y)
+    pu, pv, a = _closest_conjugate(u, v, ls)
+    zu, zv = pu * np.conj(ls.p), pv * np.conj(ls.p)  # a conjugate pair and its own angle: three equal first samples
+    blk = _block(ls, 0, len(u), zu * zu, zv * zv)
+    start = np.round(a / field_module._ROUND) * field_module._ROUND
+    b, flag = kernels.search(blk.k1, blk.k2, blk.ar, blk.ai, blk.br, blk.bi, blk.smin, blk.const, blk.tf, blk.tr,
+                             blk.ti, blk.tw, *field_module._first_samples(zu, zv, start)[:3],
+                             *field_module._level_offsets(np.pi / 90.0, 2), field_module._TIE)
+    assert flag.mean() > 0.9  # nearly every face ties: the numpy search decides them
+    got, ref = field_module._search(blk, zu, zv, start), _search_numpy(blk, zu, zv, start)
+    assert _same(got[0], ref[0]) and _same(got[1], ref[1])
+
+
+@needs_numba
+def test_the_conjugate_field_is_the_same_with_and_without_kernels(monkeypatch):
+    V, T = _grid_triangles(24, 18, 3.0, 2.0, height=lambda x, y: 0.3 * x * x - 0.2 * y * y + 0.1 * x * y,
+                           jitter=0.2, seed=4)
+    s = field_module.smooth_frame_field(V, T)
+    cons = (np.array([3, 40]), np.array([[1.0, 0.2, 0.0], [0.3, 1.0, 0.0]]))
+    for kw in ({}, {"constraints": cons}, {"align_boundary": False, "release_angle": None}):
+        compiled, plain = _both(monkeypatch, lambda: field_module.conjugate_frame_field(V, T, s.U, s.W, **kw))
+        assert _same(compiled.U, plain.U) and _same(compiled.W, plain.W)
+        assert _same(compiled.released, plain.released)
+
+
+def test_kernels_step_aside_when_disabled():
+    env = {**os.environ, "GHSERVER_COMPILED": "0", "PYTHONPATH": str(ROOT)}
+    code = ("from components.core.compiled import available; from components.fields import conjugate_kernels as k; "
+            "print(available(), k.search is None, k.swaps is None)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "True", "True"]
