@@ -41,6 +41,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from components.core.checks import check_points, validate_mesh
+from components.core.compiled import kernel
 from components.core.errors import InputError, MeshError
 from components.core.memo import ContentCache, digest
 from components.core.measures import cross, triangle_angles, unit
@@ -387,6 +388,58 @@ def _pair_sqdist(P, D):
     return best + inside * (h * h - best)  # inside: the plane distance (never above the edges')
 
 
+@kernel("float64(float64, float64, float64, float64[::1])")
+def _sqdist_one(x, y, z, D):  # pragma: no cover (compiled)
+    """:func:`_pair_sqdist` of one point and one triangle (``D``: the triangle's row of :attr:`_TriangleGrid.rows`),
+    with the same operations in the same order."""
+    ax, ay, az, ux, uy, uz, vx, vy, vz = D[0], D[1], D[2], D[3], D[4], D[5], D[6], D[7], D[8]
+    nx, ny, nz, d00, d01, d11, den, i00, i11, iff = D[9], D[10], D[11], D[12], D[13], D[14], D[15], D[16], D[17], D[18]
+    w0, w1, w2 = x - ax, y - ay, z - az
+    d20 = w0 * ux + w1 * uy + w2 * uz
+    d21 = w0 * vx + w1 * vy + w2 * vz
+    s = d11 * d20 - d01 * d21
+    t = d00 * d21 - d01 * d20
+    inside = 1.0 if ((s >= 0.0) and (t >= 0.0) and (s + t <= den)) else 0.0
+    h = w0 * nx + w1 * ny + w2 * nz
+    t = min(max(d20 * i00, 0.0), 1.0)  # edge AB
+    r0, r1, r2 = w0 - t * ux, w1 - t * uy, w2 - t * uz
+    best = r0 * r0 + r1 * r1 + r2 * r2
+    t = min(max(d21 * i11, 0.0), 1.0)  # edge AC
+    r0, r1, r2 = w0 - t * vx, w1 - t * vy, w2 - t * vz
+    best = min(best, r0 * r0 + r1 * r1 + r2 * r2)
+    w0, w1, w2 = w0 - ux, w1 - uy, w2 - uz  # edge BC, from B
+    f0, f1, f2 = vx - ux, vy - uy, vz - uz
+    t = min(max((w0 * f0 + w1 * f1 + w2 * f2) * iff, 0.0), 1.0)
+    r0, r1, r2 = w0 - t * f0, w1 - t * f1, w2 - t * f2
+    best = min(best, r0 * r0 + r1 * r1 + r2 * r2)
+    return best + inside * (h * h - best)
+
+
+@kernel("void(float64[:, ::1], int64[::1], int64[::1], int64[::1], int64[::1], float64[:, ::1], int64[::1], "
+        "float64[::1])")
+def _scan_compiled(P3, rows, start, ln, tri, data, best, best_d2):  # pragma: no cover (compiled)
+    """:meth:`TriangleIndex._scan` compiled: every triangle ``tri[start[j]:start[j] + ln[j]]`` of the cell of entry
+    ``j`` against the point ``rows[j]`` (``P3`` (3, q)); the first nearest of each run of entries of one point
+    replaces the point's best when strictly nearer (the numpy code's rule, so the same triangle wins)."""
+    r = len(rows)
+    i = 0
+    while i < r:
+        p = rows[i]
+        x, y, z = P3[0, p], P3[1, p], P3[2, p]
+        low, arg = np.inf, -1
+        j = i
+        while j < r and rows[j] == p:
+            for k in range(start[j], start[j] + ln[j]):
+                t = tri[k]
+                d2 = _sqdist_one(x, y, z, data[t])
+                if d2 < low:
+                    low, arg = d2, t
+            j += 1
+        if low < best_d2[p]:
+            best_d2[p], best[p] = low, arg
+        i = j
+
+
 class _TriangleGrid:
     """Cubic cells of edge ``h``; each cell lists every triangle that touches it (a superset: the triangle's
     bounding box overlaps the cell, and for triangles spanning many cells the cell's centre is within its
@@ -398,6 +451,7 @@ class _TriangleGrid:
         if finer is not None:  # a coarser level: the same triangles, cells twice as large
             self.data, self.lo, self.hi, self.lo_all, self.hi_all = (finer.data, finer.lo, finer.hi, finer.lo_all,
                                                                      finer.hi_all)
+            self.rows = finer.rows
             self.level = finer.level + 1
             self._register(2.0 * finer.h)
             return
@@ -417,6 +471,8 @@ class _TriangleGrid:
         #: per-triangle columns of the distance kernel: A, B - A, C - A, unit normal, U·U, U·W, W·W, |U×W|² and the
         #: inverse squared lengths of AB, AC, BC
         self.data = [*At, *U, *W, *Nn, d00, d01, d11, den, *inv]
+        #: the same per triangle (t, 19), for the compiled scan (None without it)
+        self.rows = None if _scan_compiled is None else np.ascontiguousarray(np.stack(self.data, axis=1))
         self.lo = lo = np.minimum(np.minimum(At, Bt), Ct)
         self.hi = hi = np.maximum(np.maximum(At, Bt), Ct)
         self.lo_all, self.hi_all = lo.min(axis=1), hi.max(axis=1)
@@ -831,6 +887,10 @@ class TriangleIndex:
         hit = g.cell_keys[pos] == keys
         rows, pos = rows[hit], pos[hit]
         start, ln = g.cell_start[pos], g.cell_len[pos]
+        if g.rows is not None:  # compiled: the same pairs, distances and winners
+            _scan_compiled(P3, rows.astype(np.int64, copy=False), start.astype(np.int64, copy=False),
+                           ln.astype(np.int64, copy=False), g.tri.astype(np.int64, copy=False), g.rows, best, best_d2)
+            return
         ends = np.cumsum(ln)
         s = 0
         while s < len(rows):  # batches of about _GRID_PAIRS pairs

@@ -1,4 +1,5 @@
-"""The optional compiled kernels (numba) give the numpy code's results bit for bit, and step aside when disabled."""
+"""The optional compiled kernels (numba: the conjugate field's local step, the closest-point scan) give the numpy
+code's results bit for bit, and step aside when disabled."""
 from __future__ import annotations
 
 import os
@@ -9,7 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import components.core.proximity as proximity
 import components.fields.field as field_module
+from components.core import memo
+from components.core.proximity import TriangleIndex
 from components.fields import conjugate_kernels as kernels
 from components.fields.field import _block, _closest_conjugate, _local_step, _search_numpy
 from tests.components.test_fields import _grid_triangles, _local_inputs
@@ -89,3 +93,33 @@ def test_kernels_step_aside_when_disabled():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["False", "True", "True"]
+
+
+@pytest.mark.skipif(proximity._scan_compiled is None, reason="numba is not installed (the numpy code runs)")
+def test_the_compiled_closest_point_scan_is_the_numpy_one_bit_for_bit(monkeypatch):
+    # near and far points (far ones search the coarser grids), points on vertices and edges (ties between
+    # triangles: the first listed wins either way), a mesh with degenerate triangles
+    V, T = _grid_triangles(30, 20, 3.0, 2.0, height=lambda x, y: 0.3 * np.sin(2 * x) * y, jitter=0.3, seed=5)
+    T = np.concatenate([T, [[0, 1, 1], [5, 5, 5]]])
+    rng = np.random.default_rng(0)
+    P = np.concatenate([V[rng.integers(0, len(V), 3000)] + rng.normal(scale=0.05, size=(3000, 3)), V[:200],
+                        0.5 * (V[T[:200, 0]] + V[T[:200, 1]]), rng.uniform(-8, 8, size=(300, 3))])
+
+    def run():
+        memo.clear_all()  # a new index (the grids are kept per mesh)
+        index = TriangleIndex(V, T)
+        r = index.query(P)
+        return r.points, r.distances, r.faces, r.barycentric, index.within(P, 0.02)
+
+    compiled, plain = _both_scans(monkeypatch, run)
+    for x, y in zip(compiled, plain):
+        assert _same(x, y)
+
+
+def _both_scans(monkeypatch, fn):
+    compiled = fn()
+    with monkeypatch.context() as m:
+        m.setattr(proximity, "_scan_compiled", None)
+        plain = fn()
+    memo.clear_all()
+    return compiled, plain
