@@ -857,10 +857,12 @@ def _search(blk: _Block, zu, zv, start):
     if kernels.search is None:
         return _search_numpy(blk, zu, zv, start)
     a, ca, sa, step, levels = _first_samples(zu, zv, start)
-    const = np.zeros(len(zu)) if blk.const is None else blk.const
-    faces = (blk.k1, blk.k2, blk.ar, blk.ai, blk.br, blk.bi)
-    b, odd = kernels.search(*faces, blk.smin, const, blk.tf, blk.tr, blk.ti, blk.tw, a, ca, sa,
-                            *_level_offsets(step, levels), _TIE)
+    f8 = functools.partial(np.ascontiguousarray, dtype=np.float64)  # the kernels' types (no copy: they are)
+    const = np.zeros(len(zu)) if blk.const is None else f8(blk.const)
+    faces = tuple(f8(x) for x in (blk.k1, blk.k2, blk.ar, blk.ai, blk.br, blk.bi))
+    b, odd = kernels.search(*faces, float(blk.smin), const, np.ascontiguousarray(blk.tf, dtype=np.int64),
+                            f8(blk.tr), f8(blk.ti), f8(blk.tw), f8(a), f8(ca), f8(sa), *_level_offsets(step, levels),
+                            _TIE)
     swap = kernels.swaps(np.cos(b), np.sin(b), *faces)
     odd = np.flatnonzero(odd)
     if len(odd):  # samples within the tie margin, or NaN costs: the numpy search's own rules settle them
