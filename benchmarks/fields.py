@@ -52,6 +52,13 @@ session-11 code → today's in the same hour: 20k 3.16 s → 2.97-3.01 s (field 
 1.0 → 1.0; same 1406-face candidate, 9.6e-5, healthy; the planarizer takes 27 iterations instead of 26 on this
 candidate, 81 factorizations instead of 132), 200k 35.6 s → 32.7 s (planarize 13.4 → 10.6; converged 9.1e-5,
 healthy, coverage 1.000), peak 1.5 GB. 20k is at the 3 s line, not under it with a margin; 200k is 2.2x from 15 s.
+Session 13 (same machine; the conjugate field's local step and the closest-point scan compiled with numba, the
+optional ``fast`` extra, components.core.compiled; the same results bit for bit, so the same candidates and meshes;
+the modules are now imported before the children fork, as in a server's solver processes), the numpy code
+(``GHSERVER_COMPILED=0``) → compiled, same hour: 20k 2.80-2.87 s → 2.51-2.55 s (field 1.0 → 0.7; same 1406-face
+result, 9.6e-5, healthy), peak 213 → 250 MB (numba); 200k 30.7 s → 28.9 s (field 12.7 → 10.5), peak 1.56 → 1.57 GB.
+The 200k row's sparse factorizations and solves (SuperLU: the field's, the parametrization's and the planarizer's)
+are now 12.8 of its 28.5 s; the rest is spread over many numpy steps.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.

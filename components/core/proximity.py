@@ -451,7 +451,8 @@ class _TriangleGrid:
         if finer is not None:  # a coarser level: the same triangles, cells twice as large
             self.data, self.lo, self.hi, self.lo_all, self.hi_all = (finer.data, finer.lo, finer.hi, finer.lo_all,
                                                                      finer.hi_all)
-            self.rows = finer.rows
+            self._rows = finer._rows
+            self._finer = finer
             self.level = finer.level + 1
             self._register(2.0 * finer.h)
             return
@@ -471,13 +472,23 @@ class _TriangleGrid:
         #: per-triangle columns of the distance kernel: A, B - A, C - A, unit normal, U·U, U·W, W·W, |U×W|² and the
         #: inverse squared lengths of AB, AC, BC
         self.data = [*At, *U, *W, *Nn, d00, d01, d11, den, *inv]
-        #: the same per triangle (t, 19), for the compiled scan (None without it)
-        self.rows = None if _scan_compiled is None else np.ascontiguousarray(np.stack(self.data, axis=1))
+        self._rows, self._finer = None, None
         self.lo = lo = np.minimum(np.minimum(At, Bt), Ct)
         self.hi = hi = np.maximum(np.maximum(At, Bt), Ct)
         self.lo_all, self.hi_all = lo.min(axis=1), hi.max(axis=1)
         self.level = 0
         self._register(_cell_size(longest, 0.5 * np.sqrt(np.maximum(den, 0.0)), self.hi_all - self.lo_all))
+
+    @property
+    def rows(self) -> np.ndarray | None:
+        """:attr:`data` per triangle ``(t, 19)`` for the compiled scan, made on first use and shared by the coarser
+        levels; None without the compiled scan."""
+        if _scan_compiled is None:
+            return None
+        if self._rows is None:
+            self._rows = self._finer.rows if self._finer is not None else np.ascontiguousarray(
+                np.stack(self.data, axis=1))
+        return self._rows
 
     def coarser(self) -> "_TriangleGrid":
         """The grid of the same triangles with cells twice as large (built on first use)."""
