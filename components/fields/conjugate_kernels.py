@@ -23,21 +23,27 @@ _ROW = "float64[::1]"
 _BLOCK = f"{_ROW}, {_ROW}, {_ROW}, {_ROW}, {_ROW}, {_ROW}"  # k1, k2, ar, ai, br, bi
 
 
+@kernel("UniTuple(float64, 4)(float64, float64, float64, float64)")
+def _doubled(ca, sa, k1, k2):  # pragma: no cover (compiled)
+    """Doubled angles ``(c2a, s2a, c2b, s2b)`` of the sample ``a`` (``ca, sa``) and of its conjugate direction
+    ``b(a)`` for the curvatures ``k1, k2`` (``_conjugate_cost``'s first lines)."""
+    x = sa * (-k2)
+    y = ca * k1
+    xx = x * x
+    yy = y * y
+    r2 = xx + yy
+    r2 = 1.0 if r2 == 0.0 else r2
+    c2b = (xx - yy) / r2
+    s2b = ((x * 2.0) * y) / r2
+    return ca * ca - sa * sa, (ca * 2.0) * sa, c2b, s2b
+
+
 @kernel(f"void({_ROW}, {_ROW}, {_BLOCK}, float64, {_ROW}, {_ROW})")
 def _costs(ca, sa, k1, k2, ar, ai, br, bi, smin2, const, D):  # pragma: no cover (compiled)
     """``D`` = twice the cost of the samples ``ca, sa`` (one per face) without the tangent term's tangent faces
     (``const``: its constant, zeros without tangents)."""
     for i in range(len(ca)):
-        x = sa[i] * (-k2[i])
-        y = ca[i] * k1[i]
-        xx = x * x
-        yy = y * y
-        r2 = xx + yy
-        r2 = 1.0 if r2 == 0.0 else r2
-        c2b = (xx - yy) / r2
-        s2b = ((x * 2.0) * y) / r2
-        c2a = ca[i] * ca[i] - sa[i] * sa[i]
-        s2a = (ca[i] * 2.0) * sa[i]
+        c2a, s2a, c2b, s2b = _doubled(ca[i], sa[i], k1[i], k2[i])
         d1 = (2.0 - (c2a * ar[i] + s2a * ai[i])) - (c2b * br[i] + s2b * bi[i])
         d2 = (2.0 - (c2a * br[i] + s2a * bi[i])) - (c2b * ar[i] + s2b * ai[i])
         d = d1 if (d1 <= d2 or d1 != d1) else d2  # np.minimum: NaN wins
@@ -51,16 +57,7 @@ def _tangent(ca, sa, k1, k2, tf, tr, ti, tw, D):  # pragma: no cover (compiled)
     """Add the tangent term of the faces ``tf`` (with their doubled tangent ``tr, ti`` and weight ``tw``) to ``D``."""
     for q in range(len(tf)):
         i = tf[q]
-        x = sa[i] * (-k2[i])
-        y = ca[i] * k1[i]
-        xx = x * x
-        yy = y * y
-        r2 = xx + yy
-        r2 = 1.0 if r2 == 0.0 else r2
-        c2b = (xx - yy) / r2
-        s2b = ((x * 2.0) * y) / r2
-        c2a = ca[i] * ca[i] - sa[i] * sa[i]
-        s2a = (ca[i] * 2.0) * sa[i]
+        c2a, s2a, c2b, s2b = _doubled(ca[i], sa[i], k1[i], k2[i])
         ta = c2a * tr[q] + s2a * ti[q]
         tb = c2b * tr[q] + s2b * ti[q]
         m = ta if (ta >= tb or ta != ta) else tb  # np.maximum: NaN wins
@@ -142,21 +139,12 @@ def swaps(cb, sb, k1, k2, ar, ai, br, bi):  # pragma: no cover (compiled)
     n = len(cb)
     out = np.empty(n, dtype=np.bool_)
     for i in range(n):
-        x = sb[i] * (-k2[i])
-        y = cb[i] * k1[i]
-        xx = x * x
-        yy = y * y
-        r2 = xx + yy
-        r2 = 1.0 if r2 == 0.0 else r2
-        c2b = (xx - yy) / r2
-        s2b = ((x * 2.0) * y) / r2
-        c2a = cb[i] * cb[i] - sb[i] * sb[i]
-        s2a = (cb[i] * 2.0) * sb[i]
+        c2a, s2a, c2b, s2b = _doubled(cb[i], sb[i], k1[i], k2[i])
         d1 = (2.0 - (c2a * ar[i] + s2a * ai[i])) - (c2b * br[i] + s2b * bi[i])
         d2 = (2.0 - (c2a * br[i] + s2a * bi[i])) - (c2b * ar[i] + s2b * ai[i])
         out[i] = d2 < d1
     return out
 
 
-if search is None or swaps is None:  # numba unavailable, or a kernel failed to compile: none of them
+if search is None or swaps is None or _doubled is None:  # numba unavailable, or a kernel failed to compile: none of them
     search = swaps = None
