@@ -54,6 +54,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from components.core.compiled import kernel
 from components.core.mesh import edge_topology, pad_faces
 
 log = logging.getLogger(__name__)
@@ -488,12 +489,13 @@ def _split_choice(P, Q, min_angle: float, max_face_size: int, diag_scale: float,
     if nbad == 0 and k <= max_face_size:
         return None
     Pl, Ql = P.tolist(), Q.tolist()  # plain floats: the loop below runs for every pair of corners
+    inside = _diagonals_inside(Pl)
     best, best_key = None, None
     for i in range(k):
         for j in range(i + 2, k):
             if i == 0 and j == k - 1:
                 continue
-            if not _diagonal_inside(Pl, i, j):
+            if not inside(i, j):
                 continue
             new = _split_pair(Pl, Ql, i, j) + _split_pair(Pl, Ql, j, i)
             left = nbad - bad[i] - bad[j] + sum(a < min_angle or a > hi for a in new)
@@ -545,6 +547,59 @@ def _diagonal_inside(P, i, j) -> bool:
         if d1 == 0 or d2 == 0:  # an edge end on the diagonal
             return False
     return True
+
+
+@kernel("boolean(float64[:, ::1], int64, int64)")
+def _inside_compiled(P, i, j):  # pragma: no cover (compiled)
+    """:func:`_diagonal_inside` compiled (the same operations; ``math.atan2`` is the C library's in both)."""
+    k = P.shape[0]
+    two_pi = 2 * math.pi
+    for s, t in ((i, j), (j, i)):
+        px, py = P[s, 0], P[s, 1]
+        vnx, vny = P[(s + 1) % k, 0] - px, P[(s + 1) % k, 1] - py
+        vpx, vpy = P[(s - 1) % k, 0] - px, P[(s - 1) % k, 1] - py
+        dx, dy = P[t, 0] - px, P[t, 1] - py
+        interior = math.atan2(vnx * vpy - vny * vpx, vnx * vpx + vny * vpy) % two_pi
+        a = math.atan2(vnx * dy - vny * dx, vnx * dx + vny * dy) % two_pi
+        if not 1e-9 < a < interior - 1e-9:
+            return False
+    ax, ay, bx, by = P[i, 0], P[i, 1], P[j, 0], P[j, 1]
+    for e in range(k):
+        f = (e + 1) % k
+        if e == i or e == j or f == i or f == j:
+            continue
+        cx, cy, dx, dy = P[e, 0], P[e, 1], P[f, 0], P[f, 1]
+        d1 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        d2 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+        d3 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+        d4 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+        if (d1 > 0) != (d2 > 0) and (d3 > 0) != (d4 > 0):
+            return False
+        if d1 == 0 or d2 == 0:
+            return False
+    return True
+
+
+@kernel("boolean[:, ::1](float64[:, ::1])")
+def _diagonals_compiled(P):  # pragma: no cover (compiled)
+    """``inside[i, j]`` (``i < j``, not the edge ``(0, k − 1)``): :func:`_diagonal_inside` of every diagonal."""
+    k = P.shape[0]
+    out = np.zeros((k, k), dtype=np.bool_)
+    for i in range(k):
+        for j in range(i + 2, k):
+            if not (i == 0 and j == k - 1):
+                out[i, j] = _inside_compiled(P, i, j)
+    return out
+
+
+def _diagonals_inside(P: list):
+    """``inside(i, j)`` for the diagonals of the counter-clockwise polygon ``P`` (plain floats): all at once where
+    compiled (the polygons of a fine network have up to a few hundred corners, and :func:`_split_choice` tests
+    every pair), else :func:`_diagonal_inside` pair by pair."""
+    if _diagonals_compiled is None:
+        return lambda i, j: _diagonal_inside(P, i, j)
+    table = _diagonals_compiled(np.array(P, dtype=np.float64).reshape(-1, 2)).tolist()
+    return lambda i, j: table[i][j]
 
 
 def _split_face(cx: _Complex, fid: int, min_angle: float, max_face_size: int, diag_scale: float,
