@@ -1,5 +1,5 @@
-"""The optional compiled kernels (numba: the conjugate field's local step, the closest-point scan) give the numpy
-code's results bit for bit, and step aside when disabled."""
+"""The optional compiled kernels (numba: the conjugate field's local step, the closest-point scan, the network
+healing's diagonal tests) give the numpy / Python code's results bit for bit, and step aside when disabled."""
 from __future__ import annotations
 
 import os
@@ -12,6 +12,7 @@ import pytest
 
 import components.core.proximity as proximity
 import components.fields.field as field_module
+import components.network.healing as healing
 from components.core import memo
 from components.core.proximity import TriangleIndex
 from components.fields import conjugate_kernels as kernels
@@ -123,3 +124,21 @@ def _both_scans(monkeypatch, fn):
         plain = fn()
     memo.clear_all()
     return compiled, plain
+
+
+@pytest.mark.skipif(healing._diagonals_compiled is None, reason="numba is not installed (the Python test runs)")
+def test_the_compiled_diagonal_tests_are_the_python_ones():
+    # star-shaped (non-convex) cells, and cells on a coarse lattice: collinear corners and corners on diagonals
+    rng = np.random.default_rng(1)
+    for trial in range(120):
+        k = int(rng.integers(4, 40))
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        r = rng.uniform(0.3, 1.0, k) if trial % 3 else np.ones(k)
+        P = np.stack([r * np.cos(ang), r * np.sin(ang)], axis=1)
+        if trial % 4 == 0:
+            P = np.round(P, 1)
+        table = healing._diagonals_compiled(np.ascontiguousarray(P))
+        for i in range(k):
+            for j in range(i + 2, k):
+                if not (i == 0 and j == k - 1):
+                    assert bool(table[i, j]) == healing._diagonal_inside(P.tolist(), i, j), (trial, i, j)
