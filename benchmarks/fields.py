@@ -294,7 +294,8 @@ def _polyvector_system(V, T):
 
 
 def factor_symmetric_ours(V, T):
-    """The smooth-field system factored as components.fields.field does (MMD on AᵀA pattern, no pivoting)."""
+    """The smooth-field system factored as components.fields.field does (reverse Cuthill-McKee, then MMD on the
+    AᵀA pattern, no pivoting)."""
     from components.fields.field import _factor
 
     return _factor(_polyvector_system(V, T))
