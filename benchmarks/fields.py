@@ -58,7 +58,12 @@ the modules are now imported before the children fork, as in a server's solver p
 (``GHSERVER_COMPILED=0``) → compiled, same hour: 20k 2.80-2.87 s → 2.51-2.55 s (field 1.0 → 0.7; same 1406-face
 result, 9.6e-5, healthy), peak 213 → 250 MB (numba); 200k 30.7 s → 28.9 s (field 12.7 → 10.5), peak 1.56 → 1.57 GB.
 The 200k row's sparse factorizations and solves (SuperLU: the field's, the parametrization's and the planarizer's)
-are now 12.8 of its 28.5 s; the rest is spread over many numpy steps.
+are now 12.8 of its 28.5 s; the rest is spread over many numpy steps. Then the field's systems were put in reverse
+Cuthill-McKee order before the minimum-degree ordering (a scan's face order had made libigl's face.obj take 2.9 s
+per factorization instead of 0.15 s: its field 12.1 → 2.3 s, its pipeline through Hops 16.0 → 6.2 s). On the
+patches this costs a few per cent of the field and changes its last bits, so the same candidates are planarized
+along slightly different paths: 20k 2.50-2.55 s (same 1406-face result), 200k 30.5 s (field 11.0, planarize 11.3,
+converged 9.8e-5, healthy, coverage 1.000).
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
