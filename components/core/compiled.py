@@ -13,7 +13,8 @@ the results are the same bit for bit with and without it (the tests compare both
 
 Kernels are compiled when their module is imported (explicit signatures) and cached on disk by numba (next to
 the module, or in the user's cache directory where that is read-only): the first import after an install compiles
-for a few seconds, later ones load in a fraction of a second.
+for a few seconds, later ones load in a fraction of a second. Where no cache directory is writable they are
+compiled anew in every process.
 
 Example
 -------
@@ -82,9 +83,11 @@ def kernel(signature: str) -> Callable[[Callable], Callable | None]:
         nb = _load()
         if nb is None:
             return None
-        try:
-            return nb.njit(signature, cache=True, nogil=True, error_model="numpy", fastmath=False)(fn)
-        except Exception as exc:  # a numba that cannot compile it: the numpy code runs
-            log.warning("numba could not compile %s (%s): the numpy code runs", fn.__name__, exc)
-            return None
+        for cache in (True, False):  # no writable cache directory at all: compiled anew in every process
+            try:
+                return nb.njit(signature, cache=cache, nogil=True, error_model="numpy", fastmath=False)(fn)
+            except Exception as exc:  # a numba that cannot compile it: the numpy code runs
+                error = exc
+        log.warning("numba could not compile %s (%s): the numpy code runs", fn.__name__, error)
+        return None
     return wrap

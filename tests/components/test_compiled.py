@@ -87,6 +87,28 @@ def test_the_conjugate_field_is_the_same_with_and_without_kernels(monkeypatch):
         assert _same(compiled.released, plain.released)
 
 
+@needs_numba
+def test_a_kernel_that_cannot_be_cached_is_compiled_all_the_same(monkeypatch):
+    import numba
+
+    from components.core.compiled import kernel
+
+    real = numba.njit
+
+    def njit(*args, cache=False, **kw):  # numba without a writable cache directory
+        if cache:
+            raise RuntimeError("cannot cache function 'twice': no locator available")
+        return real(*args, cache=False, **kw)
+
+    monkeypatch.setattr(numba, "njit", njit)
+
+    @kernel("float64(float64)")
+    def twice(x):
+        return 2.0 * x
+
+    assert twice is not None and twice(1.5) == 3.0
+
+
 def test_kernels_step_aside_when_disabled():
     env = {**os.environ, "GHSERVER_COMPILED": "0", "PYTHONPATH": str(ROOT)}
     code = ("from components.core.compiled import available; from components.fields import conjugate_kernels as k; "
