@@ -45,12 +45,17 @@ _numba = None
 _checked = False
 
 
+def _disabled() -> bool:
+    """Whether ``GHSERVER_COMPILED`` turns the kernels off."""
+    return os.environ.get(ENV_COMPILED, "").strip().lower() in ("0", "false", "no", "off")
+
+
 def _load():
     """numba, or None (absent, disabled, or failing to import)."""
     global _numba, _checked
     if not _checked:
         _checked = True
-        if os.environ.get(ENV_COMPILED, "").strip().lower() in ("0", "false", "no", "off"):
+        if _disabled():
             return None
         try:
             import numba
@@ -71,7 +76,7 @@ def status() -> str:
     """One line for the server's log: whether kernels are compiled, and why not."""
     if available():
         return f"compiled kernels on (numba {_numba.__version__})"
-    if os.environ.get(ENV_COMPILED, "").strip().lower() in ("0", "false", "no", "off"):
+    if _disabled():
         return f"compiled kernels off ({ENV_COMPILED}={os.environ[ENV_COMPILED]}): numpy code, the same results"
     return 'compiled kernels off (numba not installed: pip install ".[fast]"): numpy code, the same results'
 

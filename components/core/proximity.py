@@ -451,8 +451,7 @@ class _TriangleGrid:
         if finer is not None:  # a coarser level: the same triangles, cells twice as large
             self.data, self.lo, self.hi, self.lo_all, self.hi_all = (finer.data, finer.lo, finer.hi, finer.lo_all,
                                                                      finer.hi_all)
-            self._rows = finer._rows
-            self._finer = finer
+            self._rows, self._finer = None, finer  # the table is the finest grid's (see rows)
             self.level = finer.level + 1
             self._register(2.0 * finer.h)
             return

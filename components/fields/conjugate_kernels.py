@@ -146,5 +146,5 @@ def swaps(cb, sb, k1, k2, ar, ai, br, bi):  # pragma: no cover (compiled)
     return out
 
 
-if search is None or swaps is None or _doubled is None:  # numba unavailable, or a kernel failed to compile: none of them
+if search is None or swaps is None:  # numba unavailable, or a kernel failed to compile: none of them
     search = swaps = None

@@ -861,8 +861,8 @@ def _first_samples(zu, zv, start):
 
 @functools.lru_cache(maxsize=4)
 def _level_offsets(step: float, levels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The refinement offsets ``(levels, k)`` of :func:`_search_numpy` from its first step, and their cosines and
-    sines (computed as that loop computes them)."""
+    """The refinement offsets ``(levels, k)`` of the search from its first step (each level a third of the one
+    before), and their cosines and sines."""
     out = np.empty((3, levels, len(_AROUND)))
     for lev in range(levels):
         d = (step * _AROUND)[:, None]
@@ -903,10 +903,8 @@ def _search_numpy(blk: _Block, zu, zv, start):
     b, bc, bs = a.take(at), ca.take(at), sa.take(at)
     a, ca, sa, D = (np.empty((len(_OFFSETS), n)) for _ in range(4))
     k = len(_AROUND)
-    for _ in range(levels):
+    for d, cd, sd in zip(*(x[:, :, None] for x in _level_offsets(step, levels))):
         # the samples b + step · offset in the first rows; the last row is b itself (offset 0), its cost is known
-        d = (step * _AROUND)[:, None]
-        cd, sd = np.cos(d), np.sin(d)
         np.add(b[None, :], d, out=a[:k])
         np.subtract(np.multiply(bc, cd, out=ca[:k]), bs * sd, out=ca[:k])  # cos, sin of b + d
         np.add(np.multiply(bs, cd, out=sa[:k]), bc * sd, out=sa[:k])
@@ -916,7 +914,6 @@ def _search_numpy(blk: _Block, zu, zv, start):
         j, bD = _best_sample(a, ca, sa, D, blk, _LEVEL_ORDER)
         at = j * n + cols
         b, bc, bs = a.take(at), ca.take(at), sa.take(at)
-        step /= 3.0
     swap = _conjugate_cost(np.cos(b)[None, :], np.sin(b)[None, :], blk, want_swap=True)[1][0]
     return b, swap
 
