@@ -26,7 +26,7 @@ import numpy as np
 from components.core.blas import single_blas_thread
 from components.core.checks import check_number
 from components.core import progress
-from components.core.errors import InputError
+from components.core.errors import InputError, MeshError
 from components.core.types import Integers, Mesh, Texts, Vectors
 from components.fields.candidate import candidate_mesh, candidate_quality
 from components.metrics.health import face_health, shape_healthy
@@ -230,6 +230,10 @@ def _planarized(V: np.ndarray, F: np.ndarray, reference: tuple, tol: float, budg
     except (RuntimeError, np.linalg.LinAlgError) as exc:  # a solver failure must not lose the candidate
         log.warning("planarization failed on the candidate: %s", exc)
         warnings.append(f"planarization failed ({exc}); the candidate is returned unplanarized")
+        return None
+    except MeshError as exc:  # the solver refused our own candidate (a defect the repair left): not the user's input
+        log.warning("the planarizer refused the candidate: %s", exc)
+        warnings.append(f"the planarizer refused the candidate ({exc.detail}); it is returned unplanarized")
         return None
     warnings += list(res.warnings)
     if res.max_planarity > tol:  # health (the planarizer's converged includes it) is worded by the caller

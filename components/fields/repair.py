@@ -8,6 +8,9 @@ candidate with :func:`components.metrics.health.face_health` (shape checks at th
 ``[20°, 160°]``, edges over 0.2 × the median, faces over 0.1 × the median area, convex, not flipped against the
 surface, not folded or crossing) and repairs, pass by pass, until it is healthy or nothing changes:
 
+0. *weld* every pinch of the outline (a vertex with two boundary edges leaving it, or two boundary corners touching
+   without an edge between them: the snapping sends two grid vertices onto the tip of a spike of the outline)
+   whose pocket is short, and close the pocket with a face (the planarizer cannot take a pinched mesh);
 1. *dissolve* every interior vertex of valence 2 (its two faces merge into one polygon without it) and every
    outline vertex of valence 2 whose corner is within 25° of straight in an unhealthy face or a pentagon;
 2. *collapse* edges shorter than the bound (:func:`components.fields.extract.collapse_short_edges`, then the
@@ -47,6 +50,7 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from components.core.measures import cross
 from components.core.mesh import edge_topology, face_sizes, halfedges
@@ -58,7 +62,7 @@ from components.fields.extract import (
     drop_keeping_manifold,
     relabel,
 )
-from components.metrics.health import DEFECT_BITS, PanelHealth, face_health
+from components.metrics.health import DEFECT_BITS, TOUCH, PanelHealth, face_health, pinches
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +79,7 @@ _SHARP_TURN = np.radians(30.0)  # a boundary vertex where the candidate's outlin
 _MARGIN = 5.0  # degrees: the smoothing keeps improving a vertex's worst corner up to the bound plus this
 _QUANTUM = 0.01  # degrees: corner margins are compared at this resolution (see _quantized)
 _SLACK = 1.25  # a smoothing move may not take an edge (a face) under this × its bound, unless it already was
+_POCKET = 3  # boundary vertices at most between two touching boundary corners whose pocket is closed by a face
 # defects the repair acts on (planarity is the planarization's, coverage needs the surface)
 _SHAPE = ("short_edge", "degenerate", "corner", "nonconvex", "small", "intersecting", "folded", "flipped",
           "nonmanifold")
@@ -155,7 +160,7 @@ def repaired_candidate(V, T, Vc, Fc, tri, bary, grid, target_length: float, *, i
     FN = cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     FN /= np.maximum(np.linalg.norm(FN, axis=1, keepdims=True), 1e-300)
     bounds = (min_edge_ratio, min_angle, min_area_ratio)
-    actions = dict(dissolved=0, collapsed=0, smoothed=0, rotated=0, split=0, dropped=0)
+    actions = dict(welded=0, dissolved=0, collapsed=0, smoothed=0, rotated=0, split=0, dropped=0)
     state = (Vc, Fc, tri, bary, grid)
 
     def check(st):
@@ -169,6 +174,10 @@ def repaired_candidate(V, T, Vc, Fc, tri, bary, grid, target_length: float, *, i
         if not ((hl.face_defects & _SHAPE_BITS).any() or _near_bounds(hl, min_angle).any()) or len(state[1]) < 2:
             break
         before = (len(state[0]), len(state[1]), hl.face_defects.copy(), hl.worst_corner)
+        state, k = _closed_pockets(state, hl)
+        actions["welded"] += k
+        if k:
+            hl = check(state)
         state, k = _dissolve_valence_two(*state)
         actions["dissolved"] += k
         if k:
@@ -259,6 +268,78 @@ def _replaced(F: np.ndarray, repl: dict, sizes: np.ndarray) -> np.ndarray:
             out[start[r] + i, :len(c)] = c
             out[start[r] + i, len(c):] = c[-1]
     return out
+
+
+def _closed_pockets(state, hl: PanelHealth):
+    """Weld every pinch of the outline whose pocket is short, and close the pocket with a face.
+
+    A pinch is a vertex with two boundary edges leaving it, or two boundary corners touching (within
+    :data:`components.metrics.health.TOUCH` × the median edge) without an edge between them: the boundary snapping
+    sends two grid vertices to the same point where the outline has a sharp spike (a staircase hole cut along a
+    triangulation's edges), and the planarizer cannot take such a mesh (welded, the vertex joins two fans). Where
+    the outline runs from one corner to the other through at most :data:`_POCKET` vertices, the corners are welded
+    and the pocket between them becomes a face (one vertex between them: its two edges are zipped into one).
+    Returns the new state and the number of pinches welded (others are left; the health check names them)."""
+    Vc, Fc, tri, bary, grid = state
+    if not hl.counts["nonmanifold"] or len(Fc) < 2:
+        return state, 0
+    topo = edge_topology(Fc)
+    H, HF = halfedges(Fc)
+    _, pair = pinches(Vc, topo, H, HF, TOUCH * hl.median_edge)
+    if pair[0] < 0:
+        return state, 0
+    bh = H[topo.count[topo.HE] == 1]
+    nxt: dict = {}
+    for a, b in bh.tolist():
+        nxt.setdefault(a, []).append(b)
+    starts = np.unique(bh.ravel())
+    # the pairs: welded pinches (a vertex twice) and touching corners
+    pairs = [(v, v) for v, out in nxt.items() if len(out) > 1]
+    P = Vc[starts]
+    close = cKDTree(P - P.mean(axis=0)).query_pairs(TOUCH * hl.median_edge, output_type="ndarray")
+    edges = {(min(a, b), max(a, b)) for a, b in topo.E.tolist()}
+    pairs += [(a, b) for a, b in starts[close].tolist() if (min(a, b), max(a, b)) not in edges]
+    nv = len(Vc)
+    lab = np.arange(nv)
+    used: set = set()
+    pockets = []
+    done = 0
+    for a, b in sorted(pairs):
+        if a in used or b in used:
+            continue
+        path = _pocket(nxt, a, b) or (_pocket(nxt, b, a) if a != b else None)
+        if path is None:
+            continue
+        if path[0] != a:
+            a, b = b, a
+        mid = path[1:]
+        used.update([a, b, *mid])
+        lab[b] = a
+        done += 1
+        if len(mid) >= 2:
+            pockets.append([a] + mid[::-1])  # the twins of the pocket's boundary edges: oriented as its neighbours
+    if not done:
+        return state, 0
+    K = max([Fc.shape[1]] + [len(c) for c in pockets])
+    rows = [np.pad(Fc, ((0, 0), (0, K - Fc.shape[1])), mode="edge")] if K > Fc.shape[1] else [Fc]
+    rows += [np.array([c + [c[-1]] * (K - len(c))], dtype=np.int64) for c in pockets]
+    log.debug("repair: %d pinched corners welded, %d pockets closed", done, len(pockets))
+    return relabel(Vc, np.concatenate(rows), tri, bary, grid, lab), done
+
+
+def _pocket(nxt: dict, a: int, b: int):
+    """The outline from ``a`` to ``b`` (along the boundary edges, ``nxt``: their successors) through at most
+    :data:`_POCKET` vertices with one successor each: ``[a, ..., b)`` without ``b``, or None."""
+    for s in nxt.get(a, []):
+        path, cur = [a], s
+        for _ in range(_POCKET + 1):
+            if cur == b:
+                return path
+            if cur == a or len(nxt.get(cur, [])) != 1:
+                break
+            path.append(cur)
+            cur = nxt[cur][0]
+    return None
 
 
 def _dissolve_valence_two(Vc, Fc, tri, bary, grid):

@@ -25,7 +25,10 @@ bit    name              a face fails when
                          point, while most of the area points along it
 512    ``far``           (with ``closeness_limit``) a corner is farther from the design surface than
                          ``closeness_limit`` × the median edge
-1024   ``nonmanifold``   one of its edges has more than two faces or joins two faces of opposite orientation
+1024   ``nonmanifold``   one of its edges has more than two faces or joins two faces of opposite orientation, or
+                         a corner of it is pinched: a vertex with two boundary edges leaving it (two fans welded at
+                         a point) or a boundary corner within 0.01 × the median edge of a boundary corner it shares
+                         no edge with (two pieces touching there unwelded, which the planarizer refuses as input)
 =====  ================  ==========================================================================================
 
 With a reference (the design surface) the **coverage** is measured too: the reference is sampled (sub-triangle
@@ -86,6 +89,7 @@ _REFINE = 4  # a sub-triangle is covered or not as a whole, and where the panels
 # spacing, 84.1% at half of it, 83.7% at a quarter, 83.4% at an eighth; a healthy claim at 85.2% was false)
 _WARPED = 1e-3  # quads warped more than this (scale-free planarity) are judged by both of their splits
 _PAIR_CHUNK = 250_000  # triangle pairs tested together
+TOUCH = 0.01  # boundary corners closer than this × the median edge that share no edge touch (a pinch)
 
 
 class PanelHealth(NamedTuple):
@@ -419,7 +423,54 @@ def _crossing_checks(X, F, sc: _Scales, o: _Options, out: _Findings) -> np.ndarr
                                    f"{o.min_angle:g}° (worst {worst:.3g}° at edge ({a}, {b}))")
     out.flag("nonmanifold", nonmanifold, f"{_n(nonmanifold.sum(), 'face')} on non-manifold or inconsistently "
                                          f"oriented edges, e.g. face {int(np.argmax(nonmanifold))}")
+    pinched, pair = pinches(X, sc.topo, sc.H, sc.HF, TOUCH * sc.edge)
+    out.flag("nonmanifold", pinched, f"{_n(pinched.sum(), 'face')} at pinched corners (a vertex joining faces that "
+                                     f"share no edge there, or boundary corners within {TOUCH:g} × the median edge "
+                                     f"of each other without an edge between them), e.g. vertices {pair[0]} and "
+                                     f"{pair[1]}")
     return pairs
+
+
+def pinches(X, topo, H, HF, reach: float) -> tuple[np.ndarray, tuple]:
+    """Faces at a pinched corner: a vertex with more than one boundary edge leaving it (fans welded at a point),
+    or a boundary vertex within ``reach`` of another boundary vertex it shares no edge with (pieces touching
+    unwelded). ``topo, H, HF``: :func:`edge_topology` and :func:`halfedges` of the faces. Returns ``(m,) bool`` and
+    one such pair of vertices (a vertex twice for a welded pinch; ``(-1, -1)`` when there is none).
+
+    >>> from components.core.mesh import quad_grid
+    >>> V, Q = quad_grid(2, 1)
+    >>> F = np.array([Q[0], Q[1] + len(V)])  # the two quads apart, touching along their shared side's corners
+    >>> X = np.concatenate([V, V])
+    >>> topo = edge_topology(F); H, HF = halfedges(F)
+    >>> faces, pair = pinches(X, topo, H, HF, 1e-9); faces.tolist(), pair
+    ([True, True], (1, 7))
+    """
+    m = int(HF.max()) + 1 if len(HF) else 0
+    bh = H[topo.count[topo.HE] == 1]  # boundary half-edges
+    bad = np.zeros(len(X), dtype=bool)
+    pair = (-1, -1)
+    leaving = np.bincount(bh[:, 0], minlength=len(X))
+    if (leaving > 1).any():
+        v = int(np.argmax(leaving > 1))
+        bad[leaving > 1] = True
+        pair = (v, v)
+    B = np.unique(bh.ravel())
+    if len(B) > 1 and reach > 0:
+        P = X[B]
+        close = cKDTree(P - P.mean(axis=0)).query_pairs(reach, output_type="ndarray")
+        if len(close):
+            a, b = B[close[:, 0]], B[close[:, 1]]
+            n = np.int64(len(X))
+            keys = np.minimum(topo.E[:, 0], topo.E[:, 1]) * n + np.maximum(topo.E[:, 0], topo.E[:, 1])
+            apart = ~np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
+            a, b = a[apart], b[apart]
+            if len(a):
+                bad[a] = bad[b] = True
+                if pair[0] < 0:
+                    pair = (int(min(a[0], b[0])), int(max(a[0], b[0])))
+    faces = np.zeros(m, dtype=bool)
+    faces[HF[bad[H[:, 0]]]] = True
+    return faces, pair
 
 
 def _reference_checks(X, F, sc: _Scales, ref, o: _Options, out: _Findings, name: str):

@@ -163,6 +163,61 @@ def test_a_sliver_quad_loses_its_short_diagonal():
     assert r.health.healthy, r.health.violations
 
 
+def _pinched_grid(weld: bool):
+    """A 3 × 2 grid of unit quads without its top middle quad (a notch in the outline), the notch's two top corners
+    moved together to (1.5, 2): two quads touching at a corner (``weld``: one vertex joining both, a welded pinch),
+    the notch a triangular pocket below it. This is what the boundary snapping made of a spike of a staircase hole
+    (20k benchmark patch, seed 1, 30 field iterations: the planarizer refused the candidate as non-manifold)."""
+    from components.core.mesh import pad_faces, quad_grid
+
+    V, Q = quad_grid(3, 2, 3.0, 2.0)  # vertex j * 4 + i at (i, j)
+    F = [r for r in Q.tolist() if set(r) != {5, 6, 10, 9}]
+    V[10] = V[9] = [1.5, 2.0, 0.0]
+    if weld:
+        F = [[9 if v == 10 else v for v in r] for r in F]
+    return V, pad_faces(F)
+
+
+@pytest.mark.parametrize("weld", [False, True])
+def test_a_pinched_outline_is_unhealthy_and_repaired(weld):
+    """Two boundary corners touching without an edge (or welded into one vertex joining two fans) are a defect;
+    the repair welds them and closes the pocket below them with a triangle: manifold, healthy, nothing lost."""
+    from components.core.mesh import boundary_loops, quad_grid, triangulate
+
+    Vc, F = _pinched_grid(weld)
+    hl = repair.candidate_health(Vc, F)
+    assert not hl.healthy and hl.counts["nonmanifold"] == 2
+    assert any("pinched corners" in line and "vertices 9 and " + ("9" if weld else "10") in line
+               for line in hl.violations), hl.violations
+    for scale, offset in ((1.0, 0.0), (1e-3, 0.0), (1e3, 5e6)):  # the same verdict in other units and far away
+        assert repair.candidate_health(Vc * scale + offset, F).counts["nonmanifold"] == 2
+    Vs, Qs = quad_grid(6, 4, 3.0, 2.0)  # the design surface: the grid's rectangle
+    T = triangulate(Qs)[0]
+    index = TriangleIndex(Vs, T)
+    q = index.query(Vc)
+    r = repair.repaired_candidate(Vs, T, q.points, F, q.faces, q.barycentric, np.ones(len(Vc), bool), 1.0,
+                                  index=index)
+    assert r.health.healthy, r.health.violations
+    assert r.actions["welded"] == 1 and len(r.F) == len(F) + 1 and len(r.V) == 11
+    assert len(boundary_loops(r.F)) == 1  # one simple outline: the planarizer takes it
+    tri = [f for f in r.F.tolist() if len(set(f)) == 3]
+    assert len(tri) == 1 and sorted(np.round(r.V[list(set(tri[0]))][:, :2], 9).tolist()) == [[1, 1], [1.5, 2], [2, 1]]
+
+
+def test_a_refused_candidate_is_returned_with_a_warning():
+    """Should a candidate reach the planarizer pinched, its refusal (a MeshError about our own mesh, not the user's
+    input) becomes a warning and the unplanarized candidate, whose health says why."""
+    from components.core.mesh import quad_grid, triangulate
+    from components.fields.pipeline import _planarized
+
+    Vc, F = _pinched_grid(False)
+    Vs, Qs = quad_grid(6, 4, 3.0, 2.0)
+    warnings = []
+    assert _planarized(Vc, F, (Vs, triangulate(Qs)[0]), 1e-4, 5.0, 10.0, warnings) is None
+    assert len(warnings) == 1 and "refused the candidate" in warnings[0] and "unplanarized" in warnings[0]
+    assert not face_health(Vc, F, tolerance=1e300).healthy
+
+
 # ----------------------------------------------------------------------------------------------
 # the strategy: healthy, or it says why
 
