@@ -308,8 +308,10 @@ def _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows: bool, relax_floor
             X, t = back
             lost = "; ".join(line for line in m.verdict.violations if "planarity tolerance" not in line)
             run.converged = False
-            m = _measured(prob, guard, run, X, ref, given, prep.offset)
+            if run.stop_reason.startswith("tolerance reached"):  # by that state, not by the one returned
+                run.stop_reason = "only panels that were not healthy reached the tolerance"
             run.stop_reason += f"; backed off to the last healthy state ({t:.0%} of the way from the input)"
+            m = _measured(prob, guard, run, X, ref, given, prep.offset)
             m.verdict.warnings.append(
                 f"the most planar state found was not healthy ({lost}); the healthy state {t:.0%} of the way from "
                 f"the input to it was returned: max planarity {m.pl.max():.3g} = "
