@@ -11,6 +11,8 @@ Run from the project root::
     /work/venv/bin/python benchmarks/convergence.py                     # seeds 0-3 × 8k, 20k × ×1, ×1000, +5e6
     /work/venv/bin/python benchmarks/convergence.py --seeds 0 1 --sizes 8000 --placements x1
     /work/venv/bin/python benchmarks/convergence.py --saved /tmp/in/sweep/*.npz    # the planarizer alone
+    /work/venv/bin/python benchmarks/convergence.py --real 60 300       # the shared meshes at 60 and 300 panels
+    /work/venv/bin/python benchmarks/convergence.py --field-iterations 30    # other candidates from the same inputs
 
 Each case runs ``pq_from_conjugate_field`` on benchmarks/fields.py's patch (jittered by ``seed``) at panels of
 2.5 mean edges, in a fresh child process. Prints one row per case (faces, candidate and final max planarity,
@@ -47,6 +49,21 @@ Session 11 (same machine), ``--saved``: the planarizer's steps damped in proport
 iterations, 4036 factorizations) and 16 of 16 in 20.9 s (500, 2777). The 200k patch: all four saved candidates
 converge (seed 0 ×1 36 iterations, ×1000 53, +5e6 22; seed 1 ×1 42).
 
+``--real PANELS...`` runs the pipeline on every open mesh of ``../shared/data/meshes`` under 900 KB (see its
+INVENTORY.md) at panels of ``sqrt(area / PANELS)``, time budget 10 s, and prints the result's status or the typed
+error (a surface with handles is refused). ``--field-iterations N`` gives the conjugate field N local-global
+iterations instead of its 40: the same inputs then give other candidates, a cheap way to meet rarer ones.
+
+Session 14 (another 2-core machine): ``--field-iterations 30`` on the 20k patch, seed 1, made a candidate whose
+outline had two corners snapped onto the tip of a spike of the staircase hole; the planarizer refused it
+("candidate: vertex 1305 is non-manifold"), an error about our own mesh. Panel health now flags such pinches and
+the repair closes them (components/fields/repair.py). Seeds 0-9 × 8k, 0-7 × 20k, 8k seed 3 ×1000 and 20k seed 1
+×0.001, each with 40, 30 and 20 field iterations: 60 of 60 converged and healthy. ``--real 60 300`` (42 meshes):
+no error but the genus-1 Costa surface's (refused, typed). At 300 panels 39 converged and healthy; the tube
+stops healthy at 0.16 (convexity guard) and camelhead is unhealthy (a candidate fold the repair cannot open; said
+so). At 60 panels (a few panels across strongly curved surfaces) 29 converged, 11 end healthy short of the
+tolerance and say how far, camelhead is unhealthy.
+
 Session 12 (same machine), ``--saved``, session-11 code → today's in the same hour, one run after the other: guard
 rows released from a factored system solved with its factor (components/planarize/step.py ``_Reduced``) instead of
 a new one: 24 of 24 in 22.7 → 18.9 CPU s (710 → 688 iterations, 4036 → 1981 factorizations) and 16 of 16 in 15.9 →
@@ -72,8 +89,25 @@ PLACEMENTS = {"x1": (1.0, 0.0), "x1000": (1000.0, 0.0), "+5e6": (1.0, 5e6)}
 TOLERANCE = 1e-4
 
 
-def _case(size: int, seed: int, placement: str, budget: float):
+SHARED = ROOT.parent / "shared" / "data" / "meshes"
+
+
+def _field_iterations(n: int | None):
+    """Give the conjugate field ``n`` local-global iterations (in this child process) instead of its default."""
+    if n is None:
+        return
+    import functools
+
+    import components.fields.field as field
+    import components.fields.parametrize as parametrize
+
+    parametrize.conjugate_frame_field = functools.partial(field.conjugate_frame_field, iterations=n)
+
+
+def _case(size: int, seed: int, placement: str, budget: float, iterations: int | None = None):
     from components.fields.pipeline import pq_from_conjugate_field
+
+    _field_iterations(iterations)
 
     scale, offset = PLACEMENTS[placement]
     V, T = patch(size, seed=seed)
@@ -85,10 +119,49 @@ def _case(size: int, seed: int, placement: str, budget: float):
     return len(r.planarized[1]), r.candidate_max_planarity, r.planarized_max_planarity, r.healthy, stop, dt
 
 
-def run(size: int, seed: int, placement: str, budget: float):
+def run(size: int, seed: int, placement: str, budget: float, iterations: int | None = None):
     """One case in a fresh process: ``(faces, candidate max, final max, healthy, stop reason, seconds)``."""
-    return run_forked(_case, size, seed, placement, budget,
+    return run_forked(_case, size, seed, placement, budget, iterations,
                       failed=(0, float("nan"), float("nan"), False, "crashed", float("nan")))
+
+
+def _real(path: str, panels: int, iterations: int | None):
+    """The pipeline on one shared mesh at about ``panels`` panels: the row's numbers, or the error's text."""
+    import numpy as np
+
+    from components.core.errors import InputError
+    from components.core.mesh import read_mesh, triangulate
+    from components.fields.pipeline import pq_from_conjugate_field
+
+    _field_iterations(iterations)
+    V, F = read_mesh(path)
+    T = triangulate(F)[0]
+    area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
+    t = time.perf_counter()
+    try:
+        r = pq_from_conjugate_field((V, F), float(np.sqrt(area / panels)), tolerance=TOLERANCE, time_budget=10.0)
+    except InputError as exc:
+        return (0, float("nan"), False, float("nan"), f"{type(exc).__name__}: {exc}", time.perf_counter() - t)
+    stop = next((w.split(": ", 1)[1] for w in r.warnings if w.startswith("planarization stopped")), "")
+    return len(r.planarized[1]), r.planarized_max_planarity, r.healthy, r.coverage, stop, time.perf_counter() - t
+
+
+def main_real(panel_counts, iterations: int | None):
+    """The ``--real`` table."""
+    paths = sorted(p for p in SHARED.glob("*/*") if p.suffix in (".obj", ".off", ".ply") and p.stat().st_size < 900_000)
+    print("| mesh | panels asked | faces | max planarity | converged | healthy | coverage | stop or error | s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    done = total = 0
+    for path in paths:
+        for k in panel_counts:
+            nf, pmax, healthy, cov, stop, dt = run_forked(
+                _real, str(path), k, iterations, failed=(0, float("nan"), False, float("nan"), "crashed", float("nan")))
+            ok = bool(healthy and pmax <= TOLERANCE)
+            total += 1
+            done += ok
+            print(f"| {path.name} | {k} | {nf} | {pmax:.2e} | {'yes' if ok else 'no'} | {healthy} | {cov:.3f} | "
+                  f"{stop[:120] or '-'} | {dt:.1f} |", flush=True)
+    print(f"\nconverged and healthy: {done} of {total}")
 
 
 def _saved(path: str, budget: float):
@@ -137,16 +210,23 @@ def main(argv=None):
     ap.add_argument("--budget", type=float, default=30.0, help="the planarization's time budget, s")
     ap.add_argument("--saved", nargs="+", metavar="PATH",
                     help="run the planarizer alone on saved candidates (.npz with V, T, CV, CF)")
+    ap.add_argument("--real", type=int, nargs="+", metavar="PANELS",
+                    help="run the pipeline on the shared meshes (../shared/data/meshes) at these panel counts")
+    ap.add_argument("--field-iterations", type=int, default=None,
+                    help="the conjugate field's local-global iterations (default: its own, 40)")
     args = ap.parse_args(argv)
     if args.saved:
         main_saved(args.saved, args.budget)
+        return
+    if args.real:
+        main_real(args.real, args.field_iterations)
         return
     print("| size | seed | placement | faces | candidate max | final max | converged | healthy | stop | s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     done = 0
     cases = [(s, seed, pl) for s in args.sizes for seed in args.seeds for pl in args.placements]
     for size, seed, pl in cases:
-        nf, cmax, pmax, healthy, stop, dt = run(size, seed, pl, args.budget)
+        nf, cmax, pmax, healthy, stop, dt = run(size, seed, pl, args.budget, args.field_iterations)
         ok = bool(healthy and pmax <= TOLERANCE)
         done += ok
         print(f"| {size} | {seed} | {pl} | {nf} | {cmax:.2e} | {pmax:.2e} | {'yes' if ok else 'no'} | {healthy} "

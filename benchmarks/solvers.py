@@ -26,6 +26,22 @@ systems, but each factorization is solved only a few times.
 | direction field (complex, 20k / 200k rows) | 0.041 / 0.122 | 1.02 / 2.95 |
 | parametrization (20k / 200k rows) | 0.047 / 0.087 | 1.21 / 1.60 |
 | planarizer J G Jᵀ (1.4k / 12.5k rows) | 0.0023 / 0.0040 | 0.034 / 0.060 |
+
+Session 14 (another 2-core machine, by hand on the 200k patch's captured systems, CPU seconds of one thread; not
+in this script, whose columns stay SuperLU and CHOLMOD): the field's complex system (200,677 rows, 9.5M entries in
+SuperLU's L + U) takes SuperLU 1.31-1.52 s per factorization and 40 ms per solve. MKL PARDISO through
+``pypardiso`` (its real ``2n`` embedding, symmetric positive definite): 1.00 s, but 108 ms per solve (71 ms on two
+threads), and MKL is a 229 MB wheel with none for macOS on ARM. The same system in single precision (complex64):
+1.16-1.27 s, the same 40 ms solves. With a nested-dissection order instead of the minimum-degree one, SuperLU takes
+1.02 s (METIS through ``pymetis``, whose ordering itself takes 0.97 s; fill 8.75M) or 1.06 s (a recursive
+coordinate bisection of the face centroids, 0.5 s to order); the solves stay at 41-47 ms. The planarizer's systems
+(12.5-14.5k rows): 34-43 ms with the minimum-degree order, 21-27 ms with METIS's (64-85 ms to order). Reusing the
+minimum-degree order of a first factorization for the next ones with the same pattern saves its 0.17-0.3 s. None
+of these halves the field's linear algebra (6 factorizations and about 120 solves at 200k): what would is fewer of
+them, and the field's local-global iterations do not converge (their mean change stays 0.14-0.2° per iteration
+from the 20th on), so fewer iterations give other candidates, not cheaper ones: 20 or 30 instead of 40 on 21
+patches gave no faster pipeline on the whole (the field 15-30 % faster, the planarization as often slower) and a
+mean field angle error 0.1-0.8° larger.
 """
 from __future__ import annotations
 
