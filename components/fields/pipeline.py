@@ -24,9 +24,10 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.blas import single_blas_thread
-from components.core.checks import check_number
+from components.core.checks import check_mesh, check_number
 from components.core import progress
 from components.core.errors import InputError, MeshError
+from components.core.mesh import triangulate
 from components.core.types import Integers, Mesh, Texts, Vectors
 from components.fields.candidate import candidate_mesh, candidate_quality
 from components.metrics.health import face_health, shape_healthy
@@ -199,6 +200,8 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     health = face_health(Vp, Fp, surface, tolerance=tol if planarize else 1e300, name="planarized")
     healthy = shape_healthy(health)
     warnings += _health_warnings(health, healthy, cand, planarized is not None)
+    if not healthy and any(health.counts[d] for d in ("intersecting", "folded", "flipped")):
+        warnings += _surface_crossings(mesh)
     return PQResult((V, F), q.max_planarity, q.mean_planarity, (Vp, Fp), pmax, pmean, cmean, cmax, q.quad_ratio,
                     q.edge_length_within, cand.singularities, cand.mean_angle_error, cand.timings["field"],
                     cand.timings["parametrize"], cand.timings["extract"], tp, bool(healthy),
@@ -217,6 +220,21 @@ def _health_warnings(health, healthy: bool, cand, planarized: bool) -> list:
         out.append(f"the {what} are not healthy: {bad} of {len(health.face_defects)} panels with defects, "
                    f"coverage {health.coverage:.0%}: " + "; ".join(health.violations))
     return out
+
+
+def _surface_crossings(mesh) -> list[str]:
+    """The warning that the design surface crosses itself (so every panelling of it folds), or none: checked only
+    when the panels fold or cross, to say why."""
+    V, F = check_mesh(mesh)
+    T, J = triangulate(F)
+    own = face_health(V, T, tolerance=1e300, min_edge_ratio=0.0, min_angle=0.0, min_area_ratio=0.0).intersecting_pairs
+    pairs = np.unique(np.sort(J[own], axis=1), axis=0) if len(own) else own
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]] if len(pairs) else pairs
+    if not len(pairs):
+        return []
+    a, b = pairs[0].tolist()
+    return [f"the design surface crosses itself ({len(pairs)} pair{'s' if len(pairs) != 1 else ''} of crossing faces, "
+            f"e.g. faces {a} and {b} of the mesh): every panelling of it folds there; repair the surface first"]
 
 
 @single_blas_thread()  # sparse factorizations: see components.core.blas

@@ -222,6 +222,34 @@ def test_a_refused_candidate_is_returned_with_a_warning():
 # the strategy: healthy, or it says why
 
 
+def _crossing_sheet(step: float = 0.2):
+    """A sheet over x in [0, 2] along a path in (y, z): flat from y = 0 to 2, up and back over itself, then down
+    through its flat part: one disk that crosses itself (as libigl's camelhead.off does, faces 10752 and 10763)."""
+    from components.core.mesh import quad_grid, triangulate
+
+    path = np.array([[0, 0], [2, 0], [2.5, 0.5], [2, 1], [1, 1], [0.5, -0.5]], float)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    t = np.linspace(0.0, s[-1], int(round(s[-1] / step)) + 1)
+    nx = int(round(2.0 / step))
+    V, Q = quad_grid(nx, len(t) - 1, 2.0, 1.0)
+    j = np.round(V[:, 1] * (len(t) - 1)).astype(int)
+    X = np.stack([V[:, 0], np.interp(t, s, path[:, 0])[j], np.interp(t, s, path[:, 1])[j]], axis=1)
+    return X, triangulate(Q)[0]
+
+
+def test_a_surface_that_crosses_itself_is_named_as_the_cause():
+    """Every panelling of a self-crossing surface folds: the unhealthy result says the design surface crosses itself
+    and names two of its faces that do (checked only when the panels fold or cross)."""
+    V, T = _crossing_sheet()
+    res = pq_from_conjugate_field((V, T), 0.5, time_budget=2.0)
+    assert not res.healthy
+    line = [w for w in res.warnings if w.startswith("the design surface crosses itself")]
+    assert len(line) == 1 and "repair the surface first" in line[0], res.warnings
+    a, b = (int(x) for x in line[0].split("e.g. faces ")[1].split(" of the mesh")[0].split(" and "))
+    own = face_health(V, T, tolerance=1e300, min_edge_ratio=0.0, min_angle=0.0, min_area_ratio=0.0)
+    assert [min(a, b), max(a, b)] in own.intersecting_pairs.tolist()
+
+
 @pytest.mark.parametrize("name", INPUTS)
 def test_healthy_is_a_true_claim(name):
     V, T = surface(name)
