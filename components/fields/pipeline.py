@@ -234,7 +234,7 @@ def _surface_crossings(mesh) -> list[str]:
         return []
     a, b = pairs[0].tolist()
     return [f"the design surface crosses itself ({len(pairs)} pair{'s' if len(pairs) != 1 else ''} of crossing faces, "
-            f"e.g. faces {a} and {b} of the mesh): every panelling of it folds there; repair the surface first"]
+            f"e.g. faces {a} and {b} of the mesh): panels that follow it cross there too; repair the surface first"]
 
 
 @single_blas_thread()  # sparse factorizations: see components.core.blas
