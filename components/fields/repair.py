@@ -66,7 +66,7 @@ from components.metrics.health import DEFECT_BITS, TOUCH, PanelHealth, face_heal
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Repaired", "candidate_health", "repaired_candidate"]
+__all__ = ["Repaired", "candidate_health", "close_pinches", "repaired_candidate"]
 
 _STEPS = (1.0, 0.5, 0.25, 0.1)  # fractions of the way to each smoothing target
 _RING = 8  # directions of the small tangent moves tried besides the targets
@@ -325,6 +325,24 @@ def _closed_pockets(state, hl: PanelHealth):
     rows += [np.array([c + [c[-1]] * (K - len(c))], dtype=np.int64) for c in pockets]
     log.debug("repair: %d pinched corners welded, %d pockets closed", done, len(pockets))
     return relabel(Vc, np.concatenate(rows), tri, bary, grid, lab), done
+
+
+def close_pinches(Vc, Fc):
+    """A quad net ``(Vc, Fc)`` with its short pinches welded and their pockets closed (see :func:`_closed_pockets`):
+    ``(V, F, welded)``, the unused vertices dropped.
+
+    >>> from components.core.mesh import pad_faces, quad_grid
+    >>> V, Q = quad_grid(3, 2, 3.0, 2.0)
+    >>> V[10] = V[9] = [1.5, 2.0, 0.0]  # a notch's two top corners moved together: two quads touch there
+    >>> F = pad_faces([r for r in Q.tolist() if set(r) != {5, 6, 10, 9}])
+    >>> X, G, k = close_pinches(V, F)
+    >>> k, len(G), len(X), candidate_health(X, G).healthy
+    (1, 6, 11, True)
+    """
+    n = len(Vc)
+    state = (Vc, Fc, np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.ones(n, dtype=bool))
+    (V, F, *_), k = _closed_pockets(state, candidate_health(Vc, Fc))
+    return V, F, k
 
 
 def _pocket(nxt: dict, a: int, b: int):

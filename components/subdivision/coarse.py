@@ -59,12 +59,13 @@ from scipy.spatial import cKDTree
 
 from components.core.checks import check_choice, check_int, check_mesh, check_points
 from components.core.conformal import disk_map
-from components.core.errors import InputError
+from components.core.errors import InputError, MeshError
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity
 from components.core.mesh import boundary_loops, edge_topology, face_normals, pad_faces, triangulate
 from components.core.proximity import PolylineIndex, TriangleIndex
 from components.core.types import Integers, Mesh, Numbers, Points
 from components.fields.candidate import candidate_mesh
+from components.fields.repair import close_pinches
 from components.subdivision.pull import pulled_subdivision
 from components.subdivision.singularities import integrated_gaussian_curvature
 from components.subdivision.subdivide import control_mesh, subdivided_mesh
@@ -396,10 +397,14 @@ def aligned_layout(V, T, faces: int = 36, field: str = "conjugate", alignment: f
                        release_separation=0.0)
     if len(c.F) == 0:
         raise InputError("faces", "the field pipeline found no quads at this spacing")
-    used = np.unique(c.F.ravel())
-    remap = np.full(len(c.V), -1, dtype=np.int64)
+    warnings = list(c.warnings)
+    CV, CF, welded = close_pinches(c.V, c.F)  # the snapping can pinch the outline at a spike: not a control mesh
+    if welded:
+        warnings.append(f"{welded} pinched corner(s) of the net's outline were welded and their pockets closed")
+    used = np.unique(CF.ravel())
+    remap = np.full(len(CV), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
-    Vc, Fc = control_mesh(c.V[used], remap[c.F], name="coarse")
+    Vc, Fc = control_mesh(CV[used], remap[CF], name="coarse")
     # exactly on the surface, boundary exactly on the surface boundary
     Vc = TriangleIndex(V, T, name="surface").query(Vc, name="coarse").points
     loop = boundary_loops(T, name="surface")[0]
@@ -410,7 +415,7 @@ def aligned_layout(V, T, faces: int = 36, field: str = "conjugate", alignment: f
     near = index.query(Vc[Fc].mean(axis=1), name="coarse")
     if np.einsum("ij,ij->", face_normals(Vc, Fc), face_normals(V, T)[near.faces]) < 0:
         Fc = pad_faces([list(dict.fromkeys(f))[::-1] for f in Fc.tolist()], k=Fc.shape[1])
-    return Vc, Fc, list(c.warnings)
+    return Vc, Fc, warnings
 
 
 def _turn_at(V, loop, at):
@@ -484,12 +489,11 @@ def _auto_pick(V, T, faces, levels, index, aligned, ogrid, field):
     options.append(("ogrid", ogrid[5] > 0, ogrid[0], None))
     try:
         grid = grid_layout(V, T, faces=faces)
+        if grid is not None:  # a grid net with a degenerate panel (a corner of the map squeezed) is no option
+            pg, rg, bg = _judge(grid[0], grid[1], levels, index)
+            options.append(("grid", bg > 0, rg, (pg, grid[0], grid[1], grid[2])))
     except (ValueError, np.linalg.LinAlgError) as exc:  # InputError / MeshError are ValueErrors
         log.info("auto layout: no grid (%s)", exc)
-        grid = None
-    if grid is not None:
-        pg, rg, bg = _judge(grid[0], grid[1], levels, index)
-        options.append(("grid", bg > 0, rg, (pg, grid[0], grid[1], grid[2])))
     layout, _, rank, picked = min(options, key=lambda o: (o[1], o[2]))
     log.info("auto layout: %s (rank %.3g; candidates %s, %s field)", layout, rank,
              ", ".join(f"{o[0]} {o[2]:.3g}{' with bad panels' if o[1] else ''}" for o in options), field)
@@ -557,7 +561,11 @@ def coarse_net(V, T, faces: int = 36, singularities=None, singularity_index=None
         if grid is None:
             raise InputError("layout", "'grid' needs a surface whose boundary has four corners (turns over 30°)")
         Vc, Q, G = grid
-        sc = _judge(Vc, Q, levels, index)[0]
+        try:
+            sc = _judge(Vc, Q, levels, index)[0]
+        except MeshError as exc:  # our net, not the caller's mesh: say which layout to use instead
+            raise InputError("layout", f"the grid net of this surface is unusable ({exc.detail}); use 'ogrid' or "
+                                       "'aligned'") from None
     elif layout == "ogrid":
         if pts is not None:
             warnings.append("singularities: the O-grid places its own four valence-3 vertices; the given points "

@@ -117,3 +117,19 @@ def test_bad_input_before_heavy_work(no_heavy_work, nonmanifold_fan):
         pq_from_subdivision((V, T), faces=0)
     with pytest.raises(InputError, match="layout"):
         pq_from_subdivision((V, T), layout="spiral")
+
+
+def test_a_degenerate_grid_net_is_not_an_error_about_the_users_mesh():
+    """The grid layout of the DOS ``wein99_opt_del2bdry`` surface has a zero-area panel. The automatic layout used to
+    fail with "coarse: face 15 is degenerate" (a mesh the user never gave); it now leaves the grid out, and asking
+    for the grid says to use another layout."""
+    from components.core.mesh import triangulate
+    from components.subdivision.coarse import coarse_net
+
+    V, F = read_mesh(data_file("obj_snet__wein99_opt_del2bdry.obj"))
+    T = triangulate(F)[0]
+    net = coarse_net(V, T)
+    assert net.layout in ("aligned", "ogrid") and len(net.Q) > 0
+    with pytest.raises(InputError) as err:
+        coarse_net(V, T, layout="grid")
+    assert err.value.input_name == "layout" and "use 'ogrid' or 'aligned'" in str(err.value)
