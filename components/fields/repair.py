@@ -50,7 +50,6 @@ import logging
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from components.core.measures import cross
 from components.core.mesh import edge_topology, face_sizes, halfedges
@@ -62,7 +61,7 @@ from components.fields.extract import (
     drop_keeping_manifold,
     relabel,
 )
-from components.metrics.health import DEFECT_BITS, TOUCH, PanelHealth, face_health, pinches
+from components.metrics.health import DEFECT_BITS, TOUCH, PanelHealth, face_health, touching_pairs
 
 log = logging.getLogger(__name__)
 
@@ -284,21 +283,13 @@ def _closed_pockets(state, hl: PanelHealth):
     if not hl.counts["nonmanifold"] or len(Fc) < 2:
         return state, 0
     topo = edge_topology(Fc)
-    H, HF = halfedges(Fc)
-    _, pair = pinches(Vc, topo, H, HF, TOUCH * hl.median_edge)
-    if pair[0] < 0:
-        return state, 0
-    bh = H[topo.count[topo.HE] == 1]
+    H, _ = halfedges(Fc)
     nxt: dict = {}
-    for a, b in bh.tolist():
+    for a, b in H[topo.count[topo.HE] == 1].tolist():
         nxt.setdefault(a, []).append(b)
-    starts = np.unique(bh.ravel())
     # the pairs: welded pinches (a vertex twice) and touching corners
     pairs = [(v, v) for v, out in nxt.items() if len(out) > 1]
-    P = Vc[starts]
-    close = cKDTree(P - P.mean(axis=0)).query_pairs(TOUCH * hl.median_edge, output_type="ndarray")
-    edges = {(min(a, b), max(a, b)) for a, b in topo.E.tolist()}
-    pairs += [(a, b) for a, b in starts[close].tolist() if (min(a, b), max(a, b)) not in edges]
+    pairs += [tuple(p) for p in touching_pairs(Vc, topo, TOUCH * hl.median_edge).tolist()]
     nv = len(Vc)
     lab = np.arange(nv)
     used: set = set()

@@ -434,8 +434,9 @@ def _crossing_checks(X, F, sc: _Scales, o: _Options, out: _Findings) -> np.ndarr
 def pinches(X, topo, H, HF, reach: float) -> tuple[np.ndarray, tuple]:
     """Faces at a pinched corner: a vertex with more than one boundary edge leaving it (fans welded at a point),
     or a boundary vertex within ``reach`` of another boundary vertex it shares no edge with (pieces touching
-    unwelded). ``topo, H, HF``: :func:`edge_topology` and :func:`halfedges` of the faces. Returns ``(m,) bool`` and
-    one such pair of vertices (a vertex twice for a welded pinch; ``(-1, -1)`` when there is none).
+    unwelded, :func:`touching_pairs`). ``topo, H, HF``: :func:`edge_topology` and :func:`halfedges` of the faces.
+    Returns ``(m,) bool`` and one such pair of vertices (a vertex twice for a welded pinch; ``(-1, -1)`` when there
+    is none).
 
     >>> from components.core.mesh import quad_grid
     >>> V, Q = quad_grid(2, 1)
@@ -454,23 +455,35 @@ def pinches(X, topo, H, HF, reach: float) -> tuple[np.ndarray, tuple]:
         v = int(np.argmax(leaving > 1))
         bad[leaving > 1] = True
         pair = (v, v)
-    B = np.unique(bh.ravel())
-    if len(B) > 1 and reach > 0:
-        P = X[B]
-        close = cKDTree(P - P.mean(axis=0)).query_pairs(reach, output_type="ndarray")
-        if len(close):
-            a, b = B[close[:, 0]], B[close[:, 1]]
-            n = np.int64(len(X))
-            keys = np.minimum(topo.E[:, 0], topo.E[:, 1]) * n + np.maximum(topo.E[:, 0], topo.E[:, 1])
-            apart = ~np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
-            a, b = a[apart], b[apart]
-            if len(a):
-                bad[a] = bad[b] = True
-                if pair[0] < 0:
-                    pair = (int(min(a[0], b[0])), int(max(a[0], b[0])))
+    touching = touching_pairs(X, topo, reach)
+    if len(touching):
+        bad[touching.ravel()] = True
+        if pair[0] < 0:
+            pair = tuple(touching[0].tolist())
     faces = np.zeros(m, dtype=bool)
     faces[HF[bad[H[:, 0]]]] = True
     return faces, pair
+
+
+def touching_pairs(X, topo, reach: float) -> np.ndarray:
+    """Pairs ``(p, 2)``, ``a < b``, of boundary vertices within ``reach`` of each other that share no edge (pieces
+    touching unwelded); ``topo``: :func:`edge_topology` of the faces.
+
+    >>> from components.core.mesh import quad_grid
+    >>> V, Q = quad_grid(2, 1)
+    >>> touching_pairs(np.concatenate([V, V]), edge_topology(np.array([Q[0], Q[1] + len(V)])), 1e-9).tolist()
+    [[1, 7], [4, 10]]
+    """
+    B = np.unique(topo.E[topo.count == 1].ravel())
+    if len(B) < 2 or not reach > 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    P = X[B]
+    close = cKDTree(P - P.mean(axis=0)).query_pairs(reach, output_type="ndarray")
+    a, b = B[close[:, 0]], B[close[:, 1]]  # B ascends and query_pairs gives i < j: a < b
+    n = np.int64(len(X))
+    keys = np.minimum(topo.E[:, 0], topo.E[:, 1]) * n + np.maximum(topo.E[:, 0], topo.E[:, 1])
+    apart = ~np.isin(a * n + b, keys)
+    return np.stack([a[apart], b[apart]], axis=1).astype(np.int64)
 
 
 def _reference_checks(X, F, sc: _Scales, ref, o: _Options, out: _Findings, name: str):

@@ -40,12 +40,13 @@ from scipy.spatial import cKDTree
 from components.core.checks import check_mesh, validate_mesh
 from components.core.errors import MeshError
 from components.core.mesh import edge_topology, face_sizes
+from components.metrics.health import TOUCH, touching_pairs
 
 __all__ = ["WELD_FRACTION", "TOUCH_FRACTION", "Prepared", "Reference", "prepared_mesh", "centred_reference"]
 
 WELD_FRACTION = 1e-9  # default weld tolerance, × the bounding-box diagonal
 _WELD_CAP = 0.01  # the request's absolute tolerance is used up to this × the median edge
-TOUCH_FRACTION = 0.01  # unwelded boundary vertices closer than this × the median edge touch
+TOUCH_FRACTION = TOUCH  # unwelded boundary vertices closer than this × the median edge touch
 
 
 class Prepared(NamedTuple):
@@ -200,20 +201,8 @@ def _refuse_zero_edges(X, F, sizes, rep, tol, name):
 
 def _refuse_touching_pieces(X, F, median_edge, tol, name):
     """Boundary vertices closer than ``TOUCH_FRACTION × median_edge`` that share no edge are unwelded pieces."""
-    topo = edge_topology(F)
-    bnd = topo.E[topo.count == 1]
-    if len(bnd) == 0:
-        return
-    B = np.unique(bnd.ravel())
     reach = TOUCH_FRACTION * median_edge
-    pairs = cKDTree(X[B]).query_pairs(reach, output_type="ndarray")
-    if len(pairs) == 0:
-        return
-    a, b = B[pairs[:, 0]], B[pairs[:, 1]]
-    n = np.int64(len(X))
-    keys = np.minimum(topo.E[:, 0], topo.E[:, 1]) * n + np.maximum(topo.E[:, 0], topo.E[:, 1])
-    joined = np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
-    a, b = a[~joined], b[~joined]
+    a, b = touching_pairs(X, edge_topology(F), reach).T
     if len(a) == 0:
         return
     d = np.linalg.norm(X[a] - X[b], axis=1)

@@ -75,7 +75,7 @@ from components.planarize.guard import health_bounds, panel_guard
 from components.planarize.inputs import centred_reference, prepared_mesh
 from components.planarize.phases import final_state, iterate
 from components.planarize.problem import OPT_ITERATIONS, checked_options, setup_problem
-from components.planarize.verdict import healthy_backoff, result_verdict
+from components.planarize.verdict import backed_off_reason, healthy_backoff, result_verdict
 
 __all__ = ["PlanarizeResult", "planarize", "on_surface", "planarize_mesh"]
 
@@ -308,9 +308,8 @@ def _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows: bool, relax_floor
             X, t = back
             lost = "; ".join(line for line in m.verdict.violations if "planarity tolerance" not in line)
             run.converged = False
-            if run.stop_reason.startswith("tolerance reached"):  # by that state, not by the one returned
-                run.stop_reason = "only panels that were not healthy reached the tolerance"
-            run.stop_reason += f"; backed off to the last healthy state ({t:.0%} of the way from the input)"
+            run.stop_reason = (f"{backed_off_reason(run.stop_reason)}; backed off to the last healthy state "
+                               f"({t:.0%} of the way from the input)")
             m = _measured(prob, guard, run, X, ref, given, prep.offset)
             m.verdict.warnings.append(
                 f"the most planar state found was not healthy ({lost}); the healthy state {t:.0%} of the way from "

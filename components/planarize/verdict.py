@@ -16,7 +16,7 @@ import numpy as np
 from components.core.measures import max_quad_planarity
 from components.metrics.health import face_health
 
-__all__ = ["Verdict", "result_verdict", "planarity_line", "healthy_backoff"]
+__all__ = ["Verdict", "result_verdict", "planarity_line", "healthy_backoff", "backed_off_reason"]
 
 _NO_TOLERANCE = float(np.finfo(np.float64).max)  # planarity is not judged by the back-off
 _BACKOFF_STEPS = 6  # bisection steps of the back-off to the last healthy state (1/64 of the way)
@@ -127,6 +127,17 @@ def healthy_backoff(prob, guard, reference, X0, X1, offset=0.0):
             hi = t
     t = best[1]
     return X0 + t * (X1 - X0), t
+
+
+def backed_off_reason(stop_reason: str) -> str:
+    """The stop reason of a run backed off to a healthy state: a "tolerance reached" was the unhealthy state's, not
+    the returned one's.
+
+    >>> backed_off_reason("tolerance reached"), backed_off_reason("stalled")
+    ('only panels that were not healthy reached the tolerance', 'stalled')
+    """
+    return "only panels that were not healthy reached the tolerance" if stop_reason.startswith(
+        "tolerance reached") else stop_reason
 
 
 def _still_under(note: str, h, opts) -> bool:

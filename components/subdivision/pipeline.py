@@ -43,6 +43,7 @@ from components.core.proximity import TriangleIndex
 from components.core.types import Mesh, Texts
 from components.metrics.health import DEFECT_BITS, PanelHealth, face_health, shape_healthy
 from components.planarize.planarizer import planarize_mesh
+from components.planarize.verdict import backed_off_reason
 from components.subdivision.coarse import check_disk_surface, coarse_net, ogrid_size
 from components.subdivision.pull import pulled_subdivision, pulled_vertices
 from components.subdivision.subdivide import control_mesh, face_count_after, subdivided_mesh
@@ -226,14 +227,12 @@ def _backed_off(res, X, Q, t, h1, reference, tolerance):
     lines = [line for line in h1.violations if "not planar" not in line]
     kept = (f"kept the healthy state {t:.0%} of the way from the candidate" if t > 0 else
             "kept the candidate (no healthy state on the way planarizes better)")
-    reason = res.stop_reason  # the planarizer's, about the unhealthy state: it is not the returned one's
-    if reason.startswith("tolerance reached"):
-        reason = "only panels that were not healthy reached the tolerance"
     warning = (f"the planarization made unhealthy panels ({'; '.join(lines)}); {kept}: max planarity {pl.max():.3g} "
                f"= {pl.max() / tolerance:.3g} × the tolerance {tolerance:g}")
     fields = {"mesh": (X, Q), "planarity": pl, "max_planarity": float(pl.max()), "mean_planarity": float(pl.mean()),
               "max_closeness": float(d.max()), "mean_closeness": float(d.mean()), "converged": False,
-              "stop_reason": f"{reason}; backed off to the last healthy state ({t:.0%} of the way)",
+              "stop_reason": (f"{backed_off_reason(res.stop_reason)}; backed off to the last healthy state "
+                              f"({t:.0%} of the way)"),
               "worst_corner_angle": float(np.degrees(ang.min())), "nonconvex_faces": int(nonconvex_faces(X, Q).sum()),
               "max_warping_height": float(warping_height(X, Q).max())}
     fields = {k: v for k, v in fields.items() if k in res._fields}
