@@ -21,7 +21,7 @@ import threading
 import time
 from pathlib import Path
 
-from components.core import memo, progress
+from components.core import deadline, memo, progress
 
 log = logging.getLogger(__name__)
 
@@ -142,7 +142,8 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
         reset_peak_rss()
         try:
             sink = _progress_sender(conn) if header.get("progress") else None
-            with progress.reporting(sink) if sink else contextlib.nullcontext():
+            with progress.reporting(sink) if sink else contextlib.nullcontext(), \
+                    solve_deadline(header.get("limit"), header.get("option") or "--solve-timeout"):
                 status, text, uri, info = protocol.solve_bytes(registry, raw, header.get("uri"), limits=limits)
         except Exception as exc:  # solve_bytes never raises; a worker must outlive anything that still does
             log.exception("solve failed in a worker")
@@ -153,6 +154,22 @@ def _worker_main(conn, factory: str, memory_limit_mb: float | None, limits: dict
         conn.send_bytes(json.dumps({"status": status, "uri": uri, "rss_mb": _rss_mb(), "peak_mb": peak_rss_mb(),
                                     **info}).encode())
         conn.send_bytes(text)
+
+
+def solve_deadline(limit: float | None, option: str = "--solve-timeout"):
+    """The deadline of a solve with a time limit of ``limit`` seconds (:mod:`components.core.deadline`): the
+    solvers' time budgets end :func:`deadline_margin` before the limit, so that the answer (the best state so far,
+    with a warning naming the limit) is built and sent before the solve would be stopped without one."""
+    if not limit or limit <= 0:
+        return contextlib.nullcontext()
+    return deadline.deadline(float(limit) - deadline_margin(float(limit)),
+                             f"the server's time limit of {float(limit):g} s per solve (raise {option} for more)")
+
+
+def deadline_margin(limit: float) -> float:
+    """Seconds of a solve's time limit kept for what follows the solvers' budgets: the last iteration, the panel
+    health verdict, the offsets, encoding and sending the answer (15 %, at most 30 s)."""
+    return min(0.15 * limit, 30.0)
 
 
 def _progress_sender(conn):
@@ -324,7 +341,8 @@ class WorkerPool:
                 if cancel is not None and cancel():
                     self._idle.put(w)
                     return err(CANCELLED, "the solve was cancelled")
-                w.conn.send_bytes(json.dumps({"uri": uri, "progress": progress is not None}).encode())
+                w.conn.send_bytes(json.dumps({"uri": uri, "progress": progress is not None, "limit": limit,
+                                              "option": option}).encode())
                 w.conn.send_bytes(raw)
                 break
             except (EOFError, OSError) as exc:

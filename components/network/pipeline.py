@@ -47,7 +47,7 @@ from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_solve
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
-from components.core import progress
+from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
 from components.core.measures import max_quad_planarity
 from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
@@ -322,7 +322,8 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     closeness_weight : float
         Weight of the pull to the design surface in the optimization.
     time_budget : float
-        Seconds for the optimization.
+        Seconds for the optimization (cut to the caller's deadline, :mod:`components.core.deadline`: a further try
+        starts only while the deadline leaves as much time as the last one took).
     tracer : callable, optional
         Streamline tracer ``tracer(V, T, U, W, family, separation)`` (default: the project's).
     timings : dict, optional
@@ -356,7 +357,9 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     t["optimize"] = 0.0
     extend = boundary_cells == "extend"
     try:
+        last = 0.0  # seconds of the last try: another one starts only when the caller's deadline leaves as much
         for bulge in HEAL_TRIES:
+            t_try = time.perf_counter()
             w_try: list[str] = []
             progress.report(0.0, "curvature network and candidate", until=0.3)
             V, T, net, rb, cand_health = _candidate(Vn, F0, hn, h, umbilic_threshold, boundary_cells, tracer, w_try,
@@ -371,9 +374,11 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
             progress.report(0.3, "conical optimization", until=0.9)
             out = _finished(V, T, cand, optimize, closeness_weight, time_budget - t["optimize"], t)
             tries.append((cand, out, bulge))
-            if out.healthy or not (optimize and extend and t["optimize"] < time_budget):
+            last = time.perf_counter() - t_try
+            if out.healthy or not (optimize and extend and t["optimize"] < time_budget) or deadline.time_left() < last:
                 break
-        if optimize and extend and t["optimize"] < time_budget and not any(o.healthy for _, o, _ in tries):
+        if (optimize and extend and t["optimize"] < time_budget and deadline.time_left() >= last
+                and not any(o.healthy for _, o, _ in tries)):
             fb = _fields_candidate(V, T, hn, "the curvature network's candidates did not give healthy panels after "
                                              "the conical optimization (" + "; ".join(tries[0][1].violations) + ")")
             if fb is not None:

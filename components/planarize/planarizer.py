@@ -65,6 +65,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.blas import single_blas_thread
+from components.core import deadline
 from components.core.checks import check_mesh, validate_mesh
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity, warping_height
 from components.core.mesh import edge_topology, face_normals, face_sizes, triangulate
@@ -167,7 +168,7 @@ def planarize_mesh(
     max_iterations : int
         Iteration cap.
     time_budget : float
-        Wall-clock budget in seconds.
+        Wall-clock budget in seconds (cut to the caller's deadline, :mod:`components.core.deadline`, with a warning).
     angle_guard : float
         In ``[0, 1]``: no corner may go below this fraction of the input's worst corner angle (nor its margin to
         180° below the same fraction), no edge below this fraction of its input length, no face below its square
@@ -240,7 +241,12 @@ _ATTEMPTS = ((True, 0.01), (False, 0.01), (True, 1.0), (False, 1.0), (True, 0.1)
 def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeResult:
     """Run the solver on a mesh (shape-checked), a reference (``(Vr, Fr)`` or ``None``, checked here as
     ``reference_name``) and checked options; ``t0``: the call's start."""
+    budget, cut_by = deadline.capped(opts.time_budget - (time.perf_counter() - t0))
+    if cut_by is not None:  # the caller's deadline comes first: answer in time with the best state
+        opts = opts._replace(time_budget=time.perf_counter() - t0 + budget)
     prep = prepared_mesh(V, F, mesh_name, opts.absolute_tolerance)
+    if cut_by is not None:
+        prep.warnings.append(f"time budget cut to {opts.time_budget:.3g} s by {cut_by}")
     # the solver sees the reference centred like the mesh; the result is judged against it as given, in model
     # units: the closest-point index is then the one a caller's own health check of the surface builds (by content)
     given = ref = None

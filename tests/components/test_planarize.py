@@ -237,6 +237,22 @@ def test_iteration_cap_and_time_budget_are_reported(hypar_grid):
     assert res.max_planarity == pytest.approx(face_planarity(V, F).max())
 
 
+def test_a_deadline_cuts_the_time_budget_and_says_whose(hypar_grid):
+    """Whoever runs the solver (the server's solver process) may set a deadline: the budget ends there, the best
+    state is returned and a warning names what cut it; without one the budget is the caller's."""
+    from components.core import deadline
+
+    V, F = hypar_grid
+    with deadline.deadline(0.0, "the server's time limit of 90 s per solve"):
+        res = planarize((V, F), time_budget=30.0)
+    assert res.iterations == 0 and "time budget" in res.stop_reason and not res.converged
+    assert any("cut to" in w and "the server's time limit of 90 s" in w for w in res.warnings)
+    assert res.max_planarity == pytest.approx(face_planarity(V, F).max())
+    with deadline.deadline(600.0, "a far deadline"):
+        far = planarize((V, F), time_budget=30.0)
+    assert far.converged and not any("cut to" in w for w in far.warnings)
+
+
 # ----------------------------------------------------------------------------------------------- soft goals
 
 

@@ -296,6 +296,32 @@ def nap(seconds: float = 0.1) -> Process:
     return Process(seconds, os.getpid())
 
 
+def until_deadline(seconds: float = 60.0) -> Process:
+    """Wait until the solve's deadline (components.core.deadline) has passed, at most ``seconds``.
+
+    Parameters
+    ----------
+    seconds : float
+        The longest wait.
+
+    Returns
+    -------
+    value : float
+        The seconds waited.
+    pid : int
+        Process id of the solver.
+    """
+    import os
+    import time
+
+    from components.core import deadline
+
+    t0 = time.monotonic()
+    while not deadline.expired() and time.monotonic() - t0 < seconds:
+        time.sleep(0.01)
+    return Process(time.monotonic() - t0, os.getpid())
+
+
 def crash(how: str = "exit") -> Process:
     """Kill the solving process in one of several ways (for isolation tests).
 
@@ -350,6 +376,7 @@ def spin(n: int = 3_000_000) -> Process:
 
 ECHO = [
     ("test/nap", nap),
+    ("test/until_deadline", until_deadline),
     ("test/crash", crash),
     ("test/spin", spin),
     ("echo/scalars", scalars),

@@ -73,6 +73,17 @@ def test_time_limit_kills_the_solve_and_others_go_on(isolated):
     assert r.status_code == 504 and "time limit of 3 s" in r.json()["errors"][0]
 
 
+def test_solvers_get_a_deadline_before_the_time_limit(isolated):
+    """A solve's budgets end before the limit (components.core.deadline): it answers instead of being stopped."""
+    from ghserver.workers import deadline_margin
+
+    t0 = time.monotonic()
+    r = post(isolated, "test/until_deadline", hops_tree("seconds", ["30"]))
+    waited = float(r.json()["values"][0]["InnerTree"]["{0}"][0]["data"])
+    assert r.status_code == 200 and time.monotonic() - t0 < 3.0
+    assert 3.0 - deadline_margin(3.0) - 0.3 < waited <= 3.0 - deadline_margin(3.0) + 0.05
+
+
 def test_metadata_never_waits_behind_solves(isolated):
     with ThreadPoolExecutor(6) as pool:
         futs = [pool.submit(post, isolated, "test/nap", hops_tree("seconds", ["1.5"])) for _ in range(4)]
