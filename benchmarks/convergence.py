@@ -12,6 +12,7 @@ Run from the project root::
     /work/venv/bin/python benchmarks/convergence.py --seeds 0 1 --sizes 8000 --placements x1
     /work/venv/bin/python benchmarks/convergence.py --saved /tmp/in/sweep/*.npz    # the planarizer alone
     /work/venv/bin/python benchmarks/convergence.py --real 60 300       # the shared meshes at 60 and 300 panels
+    /work/venv/bin/python benchmarks/convergence.py --real 300 --placements x1 x1000 +5e6   # ... in mm and far away
     /work/venv/bin/python benchmarks/convergence.py --field-iterations 30    # other candidates from the same inputs
 
 Each case runs ``pq_from_conjugate_field`` on benchmarks/fields.py's patch (jittered by ``seed``) at panels of
@@ -63,6 +64,20 @@ no error but the genus-1 Costa surface's (refused, typed). At 300 panels 39 conv
 stops healthy at 0.16 (convexity guard) and camelhead is unhealthy (a candidate fold the repair cannot open; said
 so). At 60 panels (a few panels across strongly curved surfaces) 29 converged, 11 end healthy short of the
 tolerance and say how far, camelhead is unhealthy.
+
+Session 15 (another 2-core machine), ``--real 300 --placements x1 x1000 +5e6`` (the three placements of every
+shared mesh, 126 runs): 116 converged and healthy (the tube stops healthy at 0.16 everywhere, camelhead is unhealthy
+everywhere, Costa is refused everywhere; DOS ``wein99`` at +5e6 only: 337 panels, unhealthy, against 399 healthy).
+7 of the 42 meshes get another candidate at ×1000 or +5e6 (rhinovault_mesh_0 352 → 355 panels at ×1000; pillow_1,
+heart, cmc1, wein99, wein99_opt and camelhead at +5e6): the input's rounding at site coordinates moves the direction
+field's sampled local step by a sample on some faces, and the parametrization's integer rounding makes another
+candidate of that (see ``benchmarks/field.py``). The default patch sweep (seeds 0-3 × 8k, 20k × the three
+placements): 24 of 24 converged and healthy. The other strategies by hand at 60 panels (their own placement
+handling: the curvature network snaps the panel size to a grid): the curvature network gives the same verdict at
+all three placements on all 42 (one panel more or less on rhinovault_mesh_1 at ×1000 and lilium at +5e6); the
+subdivision strategy the same faces everywhere, and the same verdict on all but three DOS meshes whose planarization
+takes another path (heart: unhealthy at all three, planarity 0.17 / 9.5e-5 / 3.1e-2; wein99_opt: converged at ×1,
+6.2e-2 / 7.2e-2 at the 10 s budget elsewhere, unhealthy at +5e6; wein99_opt_del2bdry: unhealthy at ×1 only).
 
 Session 12 (same machine), ``--saved``, session-11 code → today's in the same hour, one run after the other: guard
 rows released from a factored system solved with its factor (components/planarize/step.py ``_Reduced``) instead of
@@ -125,8 +140,9 @@ def run(size: int, seed: int, placement: str, budget: float, iterations: int | N
                       failed=(0, float("nan"), float("nan"), False, "crashed", float("nan")))
 
 
-def _real(path: str, panels: int, iterations: int | None):
-    """The pipeline on one shared mesh at about ``panels`` panels: the row's numbers, or the error's text."""
+def _real(path: str, panels: int, iterations: int | None, placement: str = "x1"):
+    """The pipeline on one shared mesh at about ``panels`` panels (at ``placement``): the row's numbers, or the
+    error's text."""
     import numpy as np
 
     from components.core.errors import InputError
@@ -137,6 +153,8 @@ def _real(path: str, panels: int, iterations: int | None):
     V, F = read_mesh(path)
     T = triangulate(F)[0]
     area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
+    scale, offset = PLACEMENTS[placement]
+    V, area = np.asarray(V, dtype=np.float64) * scale + offset, area * scale * scale
     t = time.perf_counter()
     try:
         r = pq_from_conjugate_field((V, F), float(np.sqrt(area / panels)), tolerance=TOLERANCE, time_budget=10.0)
@@ -146,22 +164,32 @@ def _real(path: str, panels: int, iterations: int | None):
     return len(r.planarized[1]), r.planarized_max_planarity, r.healthy, r.coverage, stop, time.perf_counter() - t
 
 
-def main_real(panel_counts, iterations: int | None):
-    """The ``--real`` table."""
+def main_real(panel_counts, iterations: int | None, placements=("x1",)):
+    """The ``--real`` table (with several placements: and the meshes whose face count or verdict differs)."""
     paths = sorted(p for p in SHARED.glob("*/*") if p.suffix in (".obj", ".off", ".ply") and p.stat().st_size < 900_000)
-    print("| mesh | panels asked | faces | max planarity | converged | healthy | coverage | stop or error | s |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| mesh | panels asked | placement | faces | max planarity | converged | healthy | coverage | stop or error "
+          "| s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     done = total = 0
+    differs = []
     for path in paths:
         for k in panel_counts:
-            nf, pmax, healthy, cov, stop, dt = run_forked(
-                _real, str(path), k, iterations, failed=(0, float("nan"), False, float("nan"), "crashed", float("nan")))
-            ok = bool(healthy and pmax <= TOLERANCE)
-            total += 1
-            done += ok
-            print(f"| {path.name} | {k} | {nf} | {pmax:.2e} | {'yes' if ok else 'no'} | {healthy} | {cov:.3f} | "
-                  f"{stop[:120] or '-'} | {dt:.1f} |", flush=True)
+            seen = set()
+            for pl in placements:
+                nf, pmax, healthy, cov, stop, dt = run_forked(
+                    _real, str(path), k, iterations, pl,
+                    failed=(0, float("nan"), False, float("nan"), "crashed", float("nan")))
+                ok = bool(healthy and pmax <= TOLERANCE)
+                total += 1
+                done += ok
+                seen.add((nf, ok, healthy))
+                print(f"| {path.name} | {k} | {pl} | {nf} | {pmax:.2e} | {'yes' if ok else 'no'} | {healthy} | "
+                      f"{cov:.3f} | {stop[:120] or '-'} | {dt:.1f} |", flush=True)
+            if len(seen) > 1:
+                differs.append(f"{path.name} at {k}")
     print(f"\nconverged and healthy: {done} of {total}")
+    if len(placements) > 1:
+        print(f"another face count or verdict at another placement: {len(differs)} ({', '.join(differs) or '-'})")
 
 
 def _saved(path: str, budget: float):
@@ -206,7 +234,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="*", default=[0, 1, 2, 3])
     ap.add_argument("--sizes", type=int, nargs="*", default=[8000, 20000])
-    ap.add_argument("--placements", nargs="*", default=list(PLACEMENTS), choices=list(PLACEMENTS))
+    ap.add_argument("--placements", nargs="*", default=None, choices=list(PLACEMENTS),
+                    help="x1, x1000, +5e6 (default: all three for the patches, x1 for --real)")
     ap.add_argument("--budget", type=float, default=30.0, help="the planarization's time budget, s")
     ap.add_argument("--saved", nargs="+", metavar="PATH",
                     help="run the planarizer alone on saved candidates (.npz with V, T, CV, CF)")
@@ -219,12 +248,12 @@ def main(argv=None):
         main_saved(args.saved, args.budget)
         return
     if args.real:
-        main_real(args.real, args.field_iterations)
+        main_real(args.real, args.field_iterations, args.placements or ("x1",))
         return
     print("| size | seed | placement | faces | candidate max | final max | converged | healthy | stop | s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     done = 0
-    cases = [(s, seed, pl) for s in args.sizes for seed in args.seeds for pl in args.placements]
+    cases = [(s, seed, pl) for s in args.sizes for seed in args.seeds for pl in (args.placements or PLACEMENTS)]
     for size, seed, pl in cases:
         nf, cmax, pmax, healthy, stop, dt = run(size, seed, pl, args.budget, args.field_iterations)
         ok = bool(healthy and pmax <= TOLERANCE)

@@ -42,6 +42,22 @@ systems put in reverse Cuthill-McKee order before the minimum-degree ordering (o
 local step → compiled: 20k total 1.63 → 1.18 (local step 0.65 → 0.27), 200k 20.4 → 16.3 (local step 6.48 → 2.58).
 The factorizations (the column ``factor``, summed over threads) are now most of what is left: 0.75 s at 20k, 11.5 s
 at 200k.
+
+Session 15 (another 2-core machine), the field's sensitivity to its input, measured by hand (not in this script):
+the DOS ``wein99`` with every vertex moved by 1e-12 (1e-10) of its size, as site coordinates round it. The
+curvatures change by 8e-10 (1.3e-7) of themselves, the smooth field by 2e-6° (1e-5°): continuous. The conjugate
+field's first local step already moves some faces' pairs by 0.2-0.24° (mean 1.7e-3°), and it stays so over the 40
+iterations: the local step picks its best sample of a lattice 0.22° apart (0.28° cold), and costs that differ in
+their last digits pick the neighbouring sample on ~1 % of the faces. The parametrization's integer rounding turns
+that into another candidate: with ``pq_from_conjugate_field`` at 300 panels, 7 of the 42 shared meshes under 900 KB
+give another candidate at ×1000 or +5e6 (``benchmarks/convergence.py``). Tried and not adopted: moving the best
+sample to the vertex of the parabola through its neighbours' costs makes the local step continuous (the same
+perturbations move the field by 8e-5° at most, 1e-6° on average; 4 of those 7 meshes then give the same candidate
+at every placement), but the field then drifts along the family of conjugate pairs, which the sampled step's dead
+zone held: on a torus, whose principal directions are conjugate, the field left them by 0.5° → 1.9° (median) over
+40 iterations instead of staying, and the pipeline's results moved (116 → 114 of 126 converged at 300 panels, on
+other meshes: ``inspired_mesh`` stalled at 2.5e-3 and ``wein99`` at 0.16, ``compas_libigl_tubemesh`` converged).
+A field that is both continuous and anchored needs a local-global iteration that converges, not a finer sample.
 """
 from __future__ import annotations
 

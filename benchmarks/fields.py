@@ -65,6 +65,19 @@ patches this costs a few per cent of the field and changes its last bits, so the
 along slightly different paths: 20k 2.50-2.55 s (same 1406-face result), 200k 30.5 s (field 11.0, planarize 11.3,
 converged 9.8e-5, healthy, coverage 1.000).
 
+Session 15 (another 2-core machine): 200k 32.2 s (field 11.5, param 3.1, extract 4.8, planarize 12.2; 12451 faces,
+9.8e-5, healthy, coverage 1.000). Where a 2x could come from, measured by hand: the candidate built on a coarser
+triangulation of the same surface (``patch(100000)`` / ``patch(50000)`` at the 200k row's panel size, 2.5 of its
+mean edges) takes field 5.7 / 2.5 s, param 1.3 / 0.6, extract 4.5 / 13.5 (at 50k a panel is 1.25 triangle edges:
+repairs), but the planarization of its 12,665 / 15,252 panels takes 15.8 / 18.5 s: 27.7 / 35.5 s in all. The
+planarizer alone on the 200k row's saved candidate takes 12-14 s (38 iterations: 19 restore at β 0.12-0.5, where the
+Gauss-Newton step would put hundreds of interior corners under the guard's bound, 15 optimize, 4 polish; 125
+factorizations, 4.9 s). So the 15 s needs both a cheaper candidate and a planarization with fewer, longer steps;
+neither alone reaches it. Its damping at 0.01 × the residual instead of 0.03 takes this candidate in 26 iterations
+(10.4 s) and the 20k row's in 18 (0.79 s), but on 75 saved candidates (the patches' seeds 0-7 at 8k and 20k, seeds
+0-3 at ×1000 and +5e6, the shared meshes at 300 panels) it converged 72 of 75 instead of 73 in the same CPU time
+(76.5 against 75.6 s; DOS ``wein99`` stops unhealthy): tuned to the benchmark, not adopted.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """

@@ -245,8 +245,6 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
     if cut_by is not None:  # the caller's deadline comes first: answer in time with the best state
         opts = opts._replace(time_budget=time.perf_counter() - t0 + budget)
     prep = prepared_mesh(V, F, mesh_name, opts.absolute_tolerance)
-    if cut_by is not None:
-        prep.warnings.append(f"time budget cut to {opts.time_budget:.3g} s by {cut_by}")
     # the solver sees the reference centred like the mesh; the result is judged against it as given, in model
     # units: the closest-point index is then the one a caller's own health check of the surface builds (by content)
     given = ref = None
@@ -257,8 +255,10 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
     if not np.any(face_sizes(prep.F) >= 4):
         return _triangles_only(V, F, prep, ref, opts, t0)
     best, shortest = None, math.inf
+    out_of_time = False  # a further run was left out for the budget
     for lift_rows, relax_floor in _ATTEMPTS:
         if best is not None and (_succeeded(best) or time.perf_counter() - t0 + shortest > opts.time_budget):
+            out_of_time = not _succeeded(best)
             break
         t = time.perf_counter()
         att = _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows, relax_floor)
@@ -275,6 +275,8 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
                "toward the surface, found no step or was not run (optimize_iterations 0, or the time budget spent)"
                if run.converged else
                f"relaxing it to {run.relaxed_to * opts.closeness_weight:.3g} did not reach the tolerance either"))
+    if cut_by is not None and (out_of_time or run.stop_reason.startswith("time budget")):  # the deadline mattered
+        verdict.warnings.append(f"time budget cut to {opts.time_budget:.3g} s by {cut_by}")
     converged = bool(run.converged and verdict.healthy)
     stop_reason = run.stop_reason if converged or not run.converged else f"{run.stop_reason}; panels not healthy"
     fixed_in = prob.fixed if prep.rep is None else prob.fixed[prep.rep]
