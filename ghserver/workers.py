@@ -1,7 +1,9 @@
 """Process isolation for solves: a pool of worker processes with a time limit and a memory cap per solve.
 
 A solve that crashes its process, leaks, or runs past its time limit is killed and answered with a JSON error
-while the server and the other solves carry on. A solve may also be cancelled (its process is killed and replaced)
+while the server and the other solves carry on. So that a long solve answers rather than being killed, a worker runs
+each solve under a deadline a little before its limit (:func:`solve_deadline`): the components' time budgets end
+there (:mod:`components.core.deadline`). A solve may also be cancelled (its process is killed and replaced)
 and may report progress: the components' :func:`components.core.progress.report` calls in the worker process
 travel up its pipe as small JSON messages. Requests and answers cross the process boundary as JSON bytes
 (never pickled request data). Each worker builds its own registry from an importable factory
