@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from functools import partial
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -59,7 +59,8 @@ class Candidate(NamedTuple):
     :class:`~components.fields.parametrize.Parametrization`, ``T`` the triangulated input, ``warnings``, ``timings``;
     with ``repair``: ``health`` (:class:`~components.metrics.health.PanelHealth` of the candidate against the
     input surface, planarity left out) and ``repairs`` (what :func:`~components.fields.repair.repaired_candidate`
-    did), else ``None``.
+    did), else ``None``; and ``alternative``: a function that builds the next healthy candidate of the ranking
+    (``None`` when there is none; each call the next one), for a caller whose optimization of this one fails.
     """
 
     V: np.ndarray
@@ -78,6 +79,7 @@ class Candidate(NamedTuple):
     timings: dict
     health: object = None
     repairs: dict | None = None
+    alternative: Callable[[], "Candidate | None"] | None = None  # with repair: the next healthy one, or None
 
 
 def _irregular_vertices(V: np.ndarray, F: np.ndarray) -> int:
@@ -304,13 +306,26 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
         tried = _extracts(V, T, U, W, target, boundary, (1.0,), merge, index)
         timings["parametrize"] = tried[0][1].timings["total"]
     ranked = _best_first(V, T, tried, target, index)
-    health, repairs = None, None
+    health, repairs, alternative = None, None, None
     progress.report(0.85, "repair")
     if repair:
-        ex, par, health, repairs = _healthiest(V, T, ranked, target, index)
+        repaired = _repaired(V, T, ranked, target, index)
+        ex, par, health, repairs = _healthiest(repaired)
+
+        def alternative():
+            """The next healthy candidate of the ranking (repaired), or None."""
+            for out in repaired:
+                if out[2] is not None and out[2].healthy:
+                    return _candidate(V, T, *out, center, dict(timings), alternative)
+            return None
     else:
         ex, par = next(ranked)
     timings["extract"] = time.perf_counter() - t - timings["parametrize"]
+    return _candidate(V, T, ex, par, health, repairs, center, timings, alternative)
+
+
+def _candidate(V, T, ex, par, health, repairs, center, timings: dict, alternative) -> Candidate:
+    """The :class:`Candidate` of an extraction ``ex`` of the parametrization ``par`` (``V`` about ``center``)."""
     warnings = list(par.warnings)
     s = face_sizes(ex.F) if len(ex.F) else np.zeros(0, dtype=np.int64)
     quads = int(np.count_nonzero(s == 4))
@@ -322,33 +337,49 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     ratio = quads / len(s) if len(s) else 0.0
     irregular = _irregular_vertices(ex.V, ex.F) if len(ex.F) else 0
     return Candidate(ex.V + center, ex.F, ex.tri, ex.bary, quads, other, ratio, irregular, len(par.singularities),
-                     mean_err, par, T, warnings, timings, health, repairs)
+                     mean_err, par, T, warnings, timings, health, repairs, alternative)
 
 
-def _healthiest(V, T, ranked, target: float, index: TriangleIndex):
-    """Repair the ranked extractions (best score first) until one is healthy against the surface; else the one
-    with the fewest unhealthy faces (the first of equals). A candidate whose repair leaves as many unhealthy panels
-    as the best one's is not checked against the surface. (Stopping at a nearly healthy candidate was tried: on the
-    20k benchmark patch moved to +5e6 it kept a candidate with one 167° corner where the next one was healthy.)
+def _repaired(V, T, ranked, target: float, index: TriangleIndex):
+    """The ranked extractions (best score first) repaired, lazily: yields ``(ex, par, health, repairs)`` (the
+    repaired extraction, its health against the surface) and, for an empty one, ``(ex, par, None, {})``. A
+    candidate whose repair leaves as many unhealthy panels as the best unhealthy one so far, while none was healthy,
+    is yielded with ``health`` None (not checked against the surface: it cannot win)."""
+    fewest = None  # unhealthy panels of the best unhealthy candidate so far
+    for ex, par in ranked:
+        if len(ex.F) == 0:
+            yield ex, par, None, {}
+            continue
+        r = repaired_candidate(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
+        fixed = ex._replace(V=r.V, F=r.F, tri=r.tri, bary=r.bary, grid=r.grid)
+        # the check against the surface adds defects (flipped faces, coverage) to the shape checks the repair
+        # measured last: a candidate with as many unhealthy faces as the best one already cannot win
+        if fewest is not None and int(np.count_nonzero(r.health.face_defects)) >= fewest:
+            yield fixed, par, None, r.actions
+            continue
+        health = candidate_health(r.V, r.F, (V, T))
+        if not health.healthy:
+            bad = int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
+            fewest = bad if fewest is None else min(fewest, bad)
+        yield fixed, par, health, r.actions
+
+
+def _healthiest(repaired):
+    """The first healthy of the repaired extractions (:func:`_repaired`, best score first); else the one with
+    the fewest unhealthy faces (the first of equals). (Stopping at a nearly healthy candidate was tried: on the 20k
+    benchmark patch moved to +5e6 it kept a candidate with one 167° corner where the next one was healthy.)
     Returns ``ex, par, health, repairs``."""
     best = None
     first = None
-    for ex, par in ranked:
+    for ex, par, health, repairs in repaired:
         first = (ex, par) if first is None else first
-        if len(ex.F) == 0:
+        if health is None:
             continue
-        r = repaired_candidate(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
-        # the check against the surface adds defects (flipped faces, coverage) to the shape checks the repair
-        # measured last: a candidate with as many unhealthy faces as the best one already cannot win
-        if best is not None and int(np.count_nonzero(r.health.face_defects)) >= best[0]:
-            continue
-        health = candidate_health(r.V, r.F, (V, T))
-        out = (ex._replace(V=r.V, F=r.F, tri=r.tri, bary=r.bary, grid=r.grid), par, health, r.actions)
         if health.healthy:
-            return out
+            return ex, par, health, repairs
         bad = int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
         if best is None or bad < best[0]:
-            best = (bad, out)
+            best = (bad, (ex, par, health, repairs))
     if best is None:
         ex, par = first
         return ex, par, None, {}

@@ -340,3 +340,49 @@ def test_a_nearly_healthy_candidate_does_not_stop_the_search():
     c = candidate_mesh((V + 5e6, T), 2.5 * _mean_edge(V, T), repair=True)
     assert c.health is not None and c.health.healthy, c.health.violations
     assert c.quads / len(c.F) >= 0.95
+
+
+# ----------------------------------------------------------------------------------------------
+# the next candidate when the best-ranked one does not planarize
+
+
+def test_candidate_alternatives_are_the_next_healthy_ones():
+    """``Candidate.alternative`` builds the next healthy candidate of the ranking each time it is called (other
+    panels, healthy against the surface), then None."""
+    V, T = surface("wave")
+    first = candidate_mesh((V, T), size("wave"), repair=True)
+    seen = [first.F]
+    alt = first.alternative()
+    assert alt is not None
+    while alt is not None:
+        assert alt.health is not None and alt.health.healthy
+        assert not any(f.shape == alt.F.shape and np.array_equal(f, alt.F) for f in seen)
+        assert alt.T is first.T and len(alt.V) == len(alt.tri) == len(alt.bary)
+        seen.append(alt.F)
+        alt = alt.alternative()
+    assert 2 <= len(seen) <= 6  # two boundary modes at three densities
+
+
+def test_a_candidate_that_does_not_planarize_gives_way_to_the_next(monkeypatch):
+    """When the best-ranked candidate's planarization stops short (here: made to fail), the next healthy candidate
+    is planarized in the time left and returned if it does better, with a warning that says so."""
+    import components.fields.pipeline as pipeline
+
+    real = pipeline._planarized
+    calls = []
+
+    def first_fails(V, F, *args):
+        calls.append(len(F))
+        if len(calls) == 1:
+            args[-1].append("planarization failed (made to fail); the candidate is returned unplanarized")
+            return None
+        return real(V, F, *args)
+
+    monkeypatch.setattr(pipeline, "_planarized", first_fails)
+    V, T = surface("wave")
+    res = pq_from_conjugate_field((V, T), size("wave"))
+    assert len(calls) == 2
+    assert res.healthy and res.planarized_max_planarity < res.candidate_max_planarity  # planarized, not given up
+    assert len(res.candidate[1]) == calls[1] == len(res.planarized[1])
+    assert any(w.startswith(f"the best-ranked candidate ({calls[0]} panels) did not planarize") for w in res.warnings)
+    assert not any("made to fail" in w for w in res.warnings)  # the first one's warnings are not the result's
