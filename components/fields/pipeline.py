@@ -188,19 +188,23 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
         raise InputError("target_length", f"{target:g} is too large: no panel fits on the surface")
     surface = (np.asarray(mesh[0], dtype=np.float64), cand.T)
     t = time.perf_counter()
-    progress.report(0.5, "planarize", until=0.95)
-    out = _outcome(cand, target, surface, planarize, tol, budget, closeness_weight)
-    # the best-ranked candidate did not planarize into healthy panels: the next healthy one, in the time left
-    left = budget - (time.perf_counter() - t)
-    if planarize and not out.ok and cand.alternative is not None and left > 0 and not deadline.expired():
-        alt = cand.alternative()
-        if alt is not None:
-            second = _outcome(alt, target, surface, planarize, tol, left, closeness_weight)
-            if second.rank > out.rank:
-                second.warnings.insert(0, f"the best-ranked candidate ({len(cand.F)} panels) did not planarize "
-                                          f"into healthy panels ({out.why}); the next healthy candidate of the "
-                                          f"ranking ({len(alt.F)} panels) did better and is returned")
-                cand, out = alt, second
+    first, out, nxt = cand, None, cand
+    while nxt is not None:  # the best-ranked candidate, then (when it falls short) the next healthy one
+        progress.report(0.5, "planarize", until=0.95)
+        warnings = list(nxt.warnings)
+        left = budget if nxt is first else budget - (time.perf_counter() - t)
+        planarized = _planarized(nxt.V, nxt.F, surface, tol, left, closeness_weight, warnings) if planarize else None
+        progress.report(0.95, "panel health")
+        got = _judged(nxt, target, surface, planarized, planarize, tol, warnings)
+        if out is not None and got.rank > out.rank:
+            got.warnings.insert(0, f"the best-ranked candidate ({len(first.F)} panels) did not planarize into "
+                                   f"healthy panels ({out.why}); the next healthy candidate of the ranking "
+                                   f"({len(nxt.F)} panels) did better and is returned")
+        if out is None or got.rank > out.rank:
+            cand, out = nxt, got
+        more = (planarize and nxt is first and not out.ok and first.alternative is not None
+                and not deadline.expired() and time.perf_counter() - t < budget)
+        nxt = first.alternative() if more else None
     tp = time.perf_counter() - t
     q, health, healthy, warnings = out.quality, out.health, out.healthy, out.warnings
     (Vp, Fp), pmax, pmean, cmean, cmax = out.planarized
@@ -225,19 +229,15 @@ class _Outcome(NamedTuple):
     why: str  # what stopped it short (for the warning of a fallback)
 
 
-def _outcome(cand, target: float, surface, planarize: bool, tol: float, budget: float,
-             closeness_weight: float) -> _Outcome:
-    """Planarize the candidate (when asked) and judge the panels."""
-    warnings = list(cand.warnings)
+def _judged(cand, target: float, surface, planarized, planarize: bool, tol: float, warnings: list) -> _Outcome:
+    """The candidate and its planarization (``None``: not asked for, or the solver failed) judged."""
     V, F = cand.V, cand.F
     q = candidate_quality(V, F, target)
-    planarized = _planarized(V, F, surface, tol, budget, closeness_weight, warnings) if planarize else None
     # not asked for, or the solver failed: the candidate itself
     planarized = planarized or ((V, F), q.max_planarity, q.mean_planarity, 0.0, 0.0)
     (Vp, Fp), pmax = planarized[0], planarized[1]
     if q.quad_ratio < 0.95:
         warnings.append(f"only {100 * q.quad_ratio:.1f}% of the candidate's faces are quads")
-    progress.report(0.95, "panel health")
     health = face_health(Vp, Fp, surface, tolerance=tol if planarize else 1e300, name="planarized")
     healthy = shape_healthy(health)
     warnings += _health_warnings(health, healthy, cand, planarize and Vp is not V)
