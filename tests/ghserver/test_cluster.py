@@ -129,6 +129,18 @@ def test_hanging_solve_is_504_and_the_next_solve_answers(strict):
     assert all(o.status_code == 200 for o in ok) and time.monotonic() - t0 < 3
 
 
+def test_a_solve_on_the_cluster_gets_its_deadline_before_the_limit(strict):
+    """The Dask workers' solver processes set the deadline too (components.core.deadline): a solve whose budgets run
+    to the deadline answers before the 3 s limit instead of a 504."""
+    from ghserver.workers import deadline_margin
+
+    r = requests.post(f"{strict.url}/test/until_deadline",
+                      json=hops_body("test/until_deadline", hops_tree("seconds", ["30"])), timeout=60)
+    assert r.status_code == 200, r.text
+    waited = float(r.json()["values"][0]["InnerTree"]["{0}"][0]["data"])
+    assert 3.0 - deadline_margin(3.0) - 0.3 < waited <= 3.0 - deadline_margin(3.0) + 0.05
+
+
 def test_crashing_solve_is_500_and_the_dask_worker_lives(served, cluster):
     r = requests.post(f"{served.url}/test/crash", json=hops_body("test/crash", hops_tree("how", ['"segfault"'])),
                       timeout=30)
