@@ -95,7 +95,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     tolerance : float
         Planarity (scale-free) the planarization must reach.
     time_budget : float
-        Seconds the planarization may take (shared with the next candidate's when the first one falls short).
+        Seconds the planarization may take (shared with the next candidates' when the first one falls short).
     closeness_weight : float
         The planarization's pull toward the input surface. Where the candidate's net is not conjugate (released
         faces, field smoothing) the planarization must slide vertices along the surface; a higher weight keeps
@@ -160,10 +160,10 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     Conjugate direction fields for PQ meshes: Liu et al. 2011; parametrization: Bommes, Zimmer & Kobbelt 2009;
     planarization: Tang et al. 2014 (see :mod:`components.planarize.planarizer`). Before the planarization the
     candidate's unhealthy panels are repaired (:func:`components.fields.repair.repaired_candidate`). When the
-    best-ranked candidate does not planarize into healthy panels within the tolerance, the next healthy candidate of
-    the ranking (:attr:`components.fields.candidate.Candidate.alternative`) is planarized in the time left and
-    returned if it does better, with a warning (the shared meshes at 60 panels: 29 → 30 of 42 converged, and four
-    that stop short of the tolerance end 9-53 % more planar; ``benchmarks/convergence.py --real 60``). Success is
+    best-ranked candidate does not planarize into healthy panels within the tolerance, the next healthy candidates
+    of the ranking (:attr:`components.fields.candidate.Candidate.alternative`) are planarized in turn in the time
+    left, and the best result is returned with a warning (the shared meshes at 60 panels: 29 → 31 of 42 converged;
+    ``benchmarks/convergence.py --real 60``). Success is
     claimed only for a result that reaches the tolerance and is healthy; anything else comes with a warning that
     names the counts.
 
@@ -188,8 +188,8 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
         raise InputError("target_length", f"{target:g} is too large: no panel fits on the surface")
     surface = (np.asarray(mesh[0], dtype=np.float64), cand.T)
     t = time.perf_counter()
-    first, out, nxt = cand, None, cand
-    while nxt is not None:  # the best-ranked candidate, then (when it falls short) the next healthy one
+    first, out, nxt, k = cand, None, cand, 1
+    while nxt is not None:  # the best-ranked candidate, then (while they fall short) the next healthy ones
         progress.report(0.5, "planarize", until=0.95)
         warnings = list(nxt.warnings)
         left = budget if nxt is first else budget - (time.perf_counter() - t)
@@ -198,13 +198,14 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
         got = _judged(nxt, target, surface, planarized, planarize, tol, warnings)
         if out is not None and got.rank > out.rank:
             got.warnings.insert(0, f"the best-ranked candidate ({len(first.F)} panels) did not planarize into "
-                                   f"healthy panels ({out.why}); the next healthy candidate of the ranking "
+                                   f"healthy panels ({first_why}); healthy candidate {k} of the ranking "
                                    f"({len(nxt.F)} panels) did better and is returned")
+        first_why = got.why if out is None else first_why
         if out is None or got.rank > out.rank:
             cand, out = nxt, got
-        more = (planarize and nxt is first and not out.ok and first.alternative is not None
+        more = (planarize and not out.ok and nxt.alternative is not None
                 and not deadline.expired() and time.perf_counter() - t < budget)
-        nxt = first.alternative() if more else None
+        nxt, k = (nxt.alternative() if more else None), k + 1
     tp = time.perf_counter() - t
     q, health, healthy, warnings = out.quality, out.health, out.healthy, out.warnings
     (Vp, Fp), pmax, pmean, cmean, cmax = out.planarized

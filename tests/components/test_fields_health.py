@@ -9,6 +9,7 @@ units or the placement of the model.
 from __future__ import annotations
 
 import functools
+import re
 
 import numpy as np
 import pytest
@@ -365,7 +366,8 @@ def test_candidate_alternatives_are_the_next_healthy_ones():
 
 def test_a_candidate_that_does_not_planarize_gives_way_to_the_next(monkeypatch):
     """When the best-ranked candidate's planarization stops short (here: made to fail), the next healthy candidate
-    is planarized in the time left and returned if it does better, with a warning that says so."""
+    and then the ones after it are planarized in the time left, and the best is returned with a warning that says
+    so."""
     import components.fields.pipeline as pipeline
 
     real = pipeline._planarized
@@ -381,8 +383,12 @@ def test_a_candidate_that_does_not_planarize_gives_way_to_the_next(monkeypatch):
     monkeypatch.setattr(pipeline, "_planarized", first_fails)
     V, T = surface("wave")
     res = pq_from_conjugate_field((V, T), size("wave"))
-    assert len(calls) == 2
+    assert len(calls) >= 2  # the first, then the next ones while they fall short (the wave's second stops short)
     assert res.healthy and res.planarized_max_planarity < res.candidate_max_planarity  # planarized, not given up
-    assert len(res.candidate[1]) == calls[1] == len(res.planarized[1])
-    assert any(w.startswith(f"the best-ranked candidate ({calls[0]} panels) did not planarize") for w in res.warnings)
+    n = len(res.planarized[1])
+    assert n == len(res.candidate[1]) and n in calls[1:]
+    said = [w for w in res.warnings if w.startswith(f"the best-ranked candidate ({calls[0]} panels) did not "
+                                                    "planarize into healthy panels (max planarity")]
+    k = re.search(r"healthy candidate (\d+) of the ranking \((\d+) panels\) did better", said[0]) if said else None
+    assert k is not None and int(k.group(2)) == n and int(k.group(1)) >= 2 and calls[int(k.group(1)) - 1] == n
     assert not any("made to fail" in w for w in res.warnings)  # the first one's warnings are not the result's
