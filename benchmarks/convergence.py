@@ -79,6 +79,12 @@ subdivision strategy the same faces everywhere, and the same verdict on all but 
 takes another path (heart: unhealthy at all three, planarity 0.17 / 9.5e-5 / 3.1e-2; wein99_opt: converged at ×1,
 6.2e-2 / 7.2e-2 at the 10 s budget elsewhere, unhealthy at +5e6; wein99_opt_del2bdry: unhealthy at ×1 only).
 
+Then the strategy went down its ranking of healthy candidates when the best-ranked one does not planarize
+(components/fields/pipeline.py): ``--real 60`` 29 → 31 of 42 converged (rhinovault_mesh_0 with healthy candidate
+2, compas_hypar with 3; the others that stop short do so at the 10 s budget, their planarity moving either way with
+its split), ``--real 300`` 39 of 42 as before (the tube 0.161 → 0.110, still short); the patch sweep and the
+benchmark rows are unchanged (their first candidate converges).
+
 Session 12 (same machine), ``--saved``, session-11 code → today's in the same hour, one run after the other: guard
 rows released from a factored system solved with its factor (components/planarize/step.py ``_Reduced``) instead of
 a new one: 24 of 24 in 22.7 → 18.9 CPU s (710 → 688 iterations, 4036 → 1981 factorizations) and 16 of 16 in 15.9 →
