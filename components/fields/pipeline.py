@@ -196,11 +196,12 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
         planarized = _planarized(nxt.V, nxt.F, surface, tol, left, closeness_weight, warnings) if planarize else None
         progress.report(0.95, "panel health")
         got = _judged(nxt, target, surface, planarized, planarize, tol, warnings)
-        if out is not None and got.rank > out.rank:
+        if out is None:
+            first_why = got.why
+        elif got.rank > out.rank:
             got.warnings.insert(0, f"the best-ranked candidate ({len(first.F)} panels) did not planarize into "
                                    f"healthy panels ({first_why}); healthy candidate {k} of the ranking "
                                    f"({len(nxt.F)} panels) did better and is returned")
-        first_why = got.why if out is None else first_why
         if out is None or got.rank > out.rank:
             cand, out = nxt, got
         more = (planarize and not out.ok and nxt.alternative is not None
