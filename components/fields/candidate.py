@@ -23,7 +23,7 @@ import numpy as np
 
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
-from components.core import progress
+from components.core import deadline, progress
 from components.core.errors import InputError
 from components.core.measures import cross, quad_planarity
 from components.core.mesh import edge_topology, face_sizes, triangulate
@@ -308,8 +308,9 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     ranked = _best_first(V, T, tried, target, index)
     health, repairs, alternative = None, None, None
     progress.report(0.85, "repair")
+    cut: list = []  # why the repairs stopped short of the ranking's end (a deadline)
     if repair:
-        repaired = _repaired(V, T, ranked, target, index)
+        repaired = _repaired(V, T, ranked, target, index, cut)
         ex, par, health, repairs = _healthiest(repaired)
 
         def alternative():
@@ -321,7 +322,9 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     else:
         ex, par = next(ranked)
     timings["extract"] = time.perf_counter() - t - timings["parametrize"]
-    return _candidate(V, T, ex, par, health, repairs, center, timings, alternative)
+    out = _candidate(V, T, ex, par, health, repairs, center, timings, alternative)
+    out.warnings.extend(cut)
+    return out
 
 
 def _candidate(V, T, ex, par, health, repairs, center, timings: dict, alternative) -> Candidate:
@@ -340,17 +343,32 @@ def _candidate(V, T, ex, par, health, repairs, center, timings: dict, alternativ
                      mean_err, par, T, warnings, timings, health, repairs, alternative)
 
 
-def _repaired(V, T, ranked, target: float, index: TriangleIndex):
+def _repaired(V, T, ranked, target: float, index: TriangleIndex, cut: list):
     """The ranked extractions (best score first) repaired, lazily: yields ``(ex, par, health, repairs)`` (the
     repaired extraction, its health against the surface) and, for an empty one, ``(ex, par, None, {})``. A
     candidate whose repair leaves as many unhealthy panels as the best unhealthy one so far, while none was healthy,
-    is yielded with ``health`` None (not checked against the surface: it cannot win)."""
+    is yielded with ``health`` None (not checked against the surface: it cannot win).
+
+    Under a caller's deadline (:mod:`components.core.deadline`, e.g. the server's time limit per solve) the next
+    candidate is repaired only while the time left holds twice the last repair (it, and as long for the
+    planarization); else the ranking ends there and ``cut`` gets the warning. (A panel size near the mesh's edge
+    length made every repair slow and none healthy: 6 × 13 s on a 43k-triangle patch at 1.24 mesh edges per
+    panel, 88 s for the candidate, past the server's 90 s.)"""
     fewest = None  # unhealthy panels of the best unhealthy candidate so far
+    last, k = 0.0, 0
     for ex, par in ranked:
         if len(ex.F) == 0:
             yield ex, par, None, {}
             continue
+        if k:
+            _, why = deadline.capped(2.0 * last)
+            if why is not None:
+                cut.append(f"the search for a healthy candidate stopped after {k} of the ranking, cut short by {why} "
+                           f"(each repair took about {last:.3g} s)")
+                return
+        t = time.perf_counter()
         r = repaired_candidate(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
+        last, k = time.perf_counter() - t, k + 1
         fixed = ex._replace(V=r.V, F=r.F, tri=r.tri, bary=r.bary, grid=r.grid)
         # the check against the surface adds defects (flipped faces, coverage) to the shape checks the repair
         # measured last: a candidate with as many unhealthy faces as the best one already cannot win

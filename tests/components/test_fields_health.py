@@ -392,3 +392,39 @@ def test_a_candidate_that_does_not_planarize_gives_way_to_the_next(monkeypatch):
     k = re.search(r"healthy candidate (\d+) of the ranking \((\d+) panels\) did better", said[0]) if said else None
     assert k is not None and int(k.group(2)) == n and int(k.group(1)) >= 2 and calls[int(k.group(1)) - 1] == n
     assert not any("made to fail" in w for w in res.warnings)  # the first one's warnings are not the result's
+
+
+def test_the_search_for_a_healthy_candidate_ends_at_the_callers_deadline(monkeypatch):
+    """Under a caller's deadline (the server's time limit per solve) the ranking is repaired only while the time
+    left holds twice the last repair: slow repairs that leave every candidate unhealthy (a panel size near the
+    mesh's edge length: 88 s on a 43k-triangle patch) end the search, with a warning that names the deadline;
+    without one every candidate is tried."""
+    import time
+
+    import components.fields.candidate as cmod
+    from components.core.deadline import deadline
+
+    real_repair, real_health = cmod.repaired_candidate, cmod.candidate_health
+    calls = []
+
+    def slow_repair(*args, **kwargs):
+        calls.append(1)
+        time.sleep(1.0)
+        return real_repair(*args, **kwargs)
+
+    def unhealthy(*args, **kwargs):
+        return real_health(*args, **kwargs)._replace(healthy=False)
+
+    monkeypatch.setattr(cmod, "repaired_candidate", slow_repair)
+    monkeypatch.setattr(cmod, "candidate_health", unhealthy)
+    V, T = surface("wave")
+    free = candidate_mesh((V, T), size("wave"), repair=True)
+    n = len(calls)
+    assert n >= 2 and not any("search for a healthy candidate" in w for w in free.warnings)
+    calls.clear()
+    with deadline(2.5, "a test's limit of 2.5 s"):
+        cut = candidate_mesh((V, T), size("wave"), repair=True)
+    assert len(calls) == 1
+    said = [w for w in cut.warnings if w.startswith("the search for a healthy candidate stopped after 1 of the "
+                                                     "ranking, cut short by a test's limit of 2.5 s")]
+    assert len(said) == 1 and cut.health is not None and not cut.health.healthy
