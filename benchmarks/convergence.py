@@ -85,6 +85,22 @@ Then the strategy went down its ranking of healthy candidates when the best-rank
 its split), ``--real 300`` 39 of 42 as before (the tube 0.161 → 0.110, still short); the patch sweep and the
 benchmark rows are unchanged (their first candidate converges).
 
+Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
+shared meshes at 300 panels), tried and not adopted:
+- Guard rows *added* to a factored system solved with its factor bordered by them (a Schur complement of up to 64
+  rows, with the same two steps of refinement as the released ones): factorizations 6353 → 3941, but CPU 75.9 →
+  84.9 s and 73 → 72 converged (wein99 stalled at 0.196). Each bordered solve costs three back-substitutions
+  (refinement) and the border ``|A|`` more, against a factorization of 2 ms on the small systems; on the 200k
+  candidate (38 ms a factorization) 126 → 94 factorizations and 15.2 → 14.9 CPU s. Not worth its code.
+- The restore phase never relaxing the closeness stiffness (``_HELD_STEPS`` 1000): the benchmark candidates converge
+  faster (20k 28 → 22 iterations, 1.05 → 0.82 s; 200k 38 → 34, 13.4 → 12.1 s) but the sweep 73 → 72 converged
+  and 71.4 → 88.0 CPU s.
+- Fill-reducing orders for the planarizer's face-sized systems on the 200k candidate: a geometric nested
+  dissection of the vertices (median planes, each row at the lowest tree node holding all its vertices, computed in
+  3 ms) factors in 33-42 ms against the minimum-degree order's 34-48 ms, with 1.3× its fill; the minimum-degree
+  order computed once and reused is 27-36 ms, but no two factorizations of a run have the same rows (125 of 125
+  distinct patterns), and placing the rows added since after their neighbours in a reused order fills 1.4-1.6×.
+
 Session 12 (same machine), ``--saved``, session-11 code → today's in the same hour, one run after the other: guard
 rows released from a factored system solved with its factor (components/planarize/step.py ``_Reduced``) instead of
 a new one: 24 of 24 in 22.7 → 18.9 CPU s (710 → 688 iterations, 4036 → 1981 factorizations) and 16 of 16 in 15.9 →

@@ -78,6 +78,18 @@ neither alone reaches it. Its damping at 0.01 × the residual instead of 0.03 ta
 0-3 at ×1000 and +5e6, the shared meshes at 300 panels) it converged 72 of 75 instead of 73 in the same CPU time
 (76.5 against 75.6 s; DOS ``wein99`` stops unhealthy): tuned to the benchmark, not adopted.
 
+Session 16 (another 2-core machine): 20k 3.02 s (1406 faces, 9.60e-5, healthy; 2.5-2.7 s by hand in the same
+hour), 200k 35.0 s (field 12.2, param 3.4, extract 5.6, planarize 13.4; 12451 faces, 9.82e-5, healthy, coverage
+1.000), 1.59 GB. The candidate on the project's own remesh of the 200k patch at a coarser edge, measured by hand:
+the remesh itself takes 11.3-11.8 s to 81-84k triangles (1.41× the edge) and 21 s to 41-43k (2×), more than it
+saves. On 81-84k the candidate takes field 4.4-4.6, param 1.1-1.2, extract 4.0-5.1 s, and its planarization 10.6 or
+20.4 s for two candidates of nearly the same panels (12,484 and 12,465): the planarizer's time depends on the
+candidate more than on its size. On the 43k remesh (a panel 1.24 of its edges) every one of the six candidates stayed
+unhealthy after a 13-15 s repair each (88 s for the candidate; 570 triangles inverted in the parametrization): the
+search now ends at the caller's deadline (components/fields/candidate.py ``_repaired``); on the same remesh at 1.5,
+2, 2.5 and 3 of its edges the candidates stay unhealthy too (59, 38, 23, 15 s; 560-610 inverted triangles), where
+the 80k patch remeshed to 66k or 16k triangles gives healthy candidates at 2.5 edges (4-20 inverted). Not pursued.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
