@@ -89,6 +89,12 @@ unhealthy after a 13-15 s repair each (88 s for the candidate; 570 triangles inv
 search now ends at the caller's deadline (components/fields/candidate.py ``_repaired``); on the same remesh at 1.5,
 2, 2.5 and 3 of its edges the candidates stay unhealthy too (59, 38, 23, 15 s; 560-610 inverted triangles), where
 the 80k patch remeshed to 66k or 16k triangles gives healthy candidates at 2.5 edges (4-20 inverted). Not pursued.
+The remesh rows in the same session: 50k 1.41x, 200k 1.65x gpytoolbox's CPU seconds before (2.42 / 12.05 s
+against 1.72 / 7.29 s; the line had been 1.06x / 1.3x on session 9's machine); then the topology of a batch that
+changed nothing was reused by the next operation and built with fewer passes (bit-identical remeshes): 1.87 / 9.84 s
+against 1.63 / 7.06 s, **1.15x / 1.39x**. Coarsening is slower: the 200k patch at twice its mean edge takes 21.8 s
+(gpytoolbox 4.25 s), mostly the collapse checks, which every batch runs on every short edge (47 batches) before its
+independent set takes a few per cent of them.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
