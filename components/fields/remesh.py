@@ -490,15 +490,18 @@ def _collapse_short(S: _State, lo: float, hi: float) -> int:
     cand, r, k, con, P = cand[ok], r[ok], k[ok], con[ok], P[ok]
     # no folded or degenerate faces around r and k
     ok = np.ones(len(cand), dtype=bool)
+    T0 = S.T
+    FN = cross(V[T0[:, 1]] - V[T0[:, 0]], V[T0[:, 2]] - V[T0[:, 0]])  # every face's normal, once per batch
     for w in (r, k):
         o, f = _gather(topo.vf_ptr, topo.vf, w)
-        Tf = S.T[f]
+        Tf = T0[f]
         moved = (Tf == r[o, None]) | (Tf == k[o, None])
         gone = moved.sum(axis=1) >= 2
-        o, Tf, moved = o[~gone], Tf[~gone], moved[~gone]
+        o, f, Tf, moved = o[~gone], f[~gone], Tf[~gone], moved[~gone]
         X = [V[Tf[:, j]] for j in range(3)]
-        N_old = cross(X[1] - X[0], X[2] - X[0])
-        Y = [np.where(moved[:, j:j + 1], P[o], X[j]) for j in range(3)]
+        N_old = FN[f]
+        Po = P[o]
+        Y = [np.where(moved[:, j:j + 1], Po, X[j]) for j in range(3)]
         N_new = cross(Y[1] - Y[0], Y[2] - Y[0])
         a_old = np.sqrt(np.einsum("ij,ij->i", N_old, N_old))
         a_new = np.sqrt(np.einsum("ij,ij->i", N_new, N_new))
