@@ -168,14 +168,21 @@ def _member(keys: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
 
 
 def _scramble(keys: np.ndarray, salt: int = 0) -> np.ndarray:
-    """Deterministic pseudo-random ``int64`` priorities from edge keys (a multiplicative hash).
+    """Deterministic pseudo-random ``int64`` priorities from edge keys (the splitmix64 finalizer: every key bit
+    moves every priority bit).
 
     Independent sets chosen by *random* priorities (Luby) keep a constant fraction of the candidates; priorities
-    that vary smoothly over the mesh (e.g. edge length on a graded mesh) would keep only the few local minima.
+    that vary smoothly over the mesh (e.g. edge length on a graded mesh) would keep only the few local minima. A
+    single multiplicative hash was not random enough on a grid's keys: the first collapse batches of the 200k
+    benchmark patch coarsened to twice its edge chose 0.3 % of the 297k candidates (1/35 expected), and the
+    remesh took 21 s.
     """
-    h = (keys.astype(np.uint64) + np.uint64(salt)) * np.uint64(0x9E3779B97F4A7C15)
-    h ^= h >> np.uint64(29)
-    return (h >> np.uint64(2)).astype(np.int64)
+    with np.errstate(over="ignore"):
+        x = keys.astype(np.uint64) + np.uint64(salt) + np.uint64(0x9E3779B97F4A7C15)
+        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        x ^= x >> np.uint64(31)
+    return (x >> np.uint64(1)).astype(np.int64)
 
 
 def _gather(ptr: np.ndarray, data: np.ndarray, rows: np.ndarray):
