@@ -88,7 +88,9 @@ candidate more than on its size. On the 43k remesh (a panel 1.24 of its edges) e
 unhealthy after a 13-15 s repair each (88 s for the candidate; 570 triangles inverted in the parametrization): the
 search now ends at the caller's deadline (components/fields/candidate.py ``_repaired``); on the same remesh at 1.5,
 2, 2.5 and 3 of its edges the candidates stay unhealthy too (59, 38, 23, 15 s; 560-610 inverted triangles), where
-the 80k patch remeshed to 66k or 16k triangles gives healthy candidates at 2.5 edges (4-20 inverted). Not pursued.
+the 80k patch remeshed to 66k or 16k triangles gives healthy candidates at 2.5 edges (4-20 inverted). That remesh
+(5 iterations) was the odd one: with 10 iterations, or with the priorities' new hash (below) at 5, the 200k patch
+at twice its edge gives healthy candidates at 2.5 edges in 4.2-4.5 s (8-25 inverted triangles). Not pursued.
 The remesh rows in the same session: 50k 1.41x, 200k 1.65x gpytoolbox's CPU seconds before (2.42 / 12.05 s
 against 1.72 / 7.29 s; the line had been 1.06x / 1.3x on session 9's machine); then the topology of a batch that
 changed nothing was reused by the next operation and built with fewer passes (bit-identical remeshes): 1.87 / 9.84 s
