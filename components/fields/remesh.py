@@ -31,7 +31,7 @@ from components.core.checks import check_int, check_mesh, check_number, validate
 from components.core.errors import InputError
 from components.core.measures import cross
 from components.core.mesh import boundary_loops, remove_unreferenced, triangulate
-from components.core.proximity import closest_points_on_triangles
+from components.core.proximity import TriangleIndex, closest_points_on_triangles
 from components.core.types import Mesh
 
 log = logging.getLogger(__name__)
@@ -796,8 +796,8 @@ def remesh(mesh: Mesh, target_length: float, iterations: int = 10) -> RemeshResu
     max_edge : float
         Longest edge.
     max_deviation : float
-        Largest distance from a result vertex to the input surface (model units; an upper bound measured against
-        the faces near each vertex, ~0 since every vertex is projected onto the input).
+        Largest distance from a result vertex to the input surface (model units; the exact closest points, ~0 since
+        every vertex is projected onto the input).
     warnings : list[str]
         Caveats, e.g. a target length far from what the input can hold.
 
@@ -836,8 +836,10 @@ def remesh(mesh: Mesh, target_length: float, iterations: int = 10) -> RemeshResu
     E = np.unique(np.sort(np.concatenate([T2[:, [0, 1]], T2[:, [1, 2]], T2[:, [2, 0]]]), axis=1), axis=0)
     lengths = np.linalg.norm(V2[E[:, 1]] - V2[E[:, 0]], axis=1)
     Vin, Tin = validate_mesh(V, T, name="mesh", kind="tri")
-    proj = _Projector(Vin, Tin, np.zeros((0, 2), dtype=np.int64))
-    _, dist = proj.surface(V2)
+    # the exact closest points (the remesher's own local projection is only an upper bound where the input's
+    # triangles are large or thin: 0.0138 reported on DOS heart at 0.8 of its mean edge, 4.5e-15 in fact)
+    near = TriangleIndex(Vin, Tin).query(V2).points
+    dist = np.linalg.norm(near - V2, axis=1)
     return RemeshResult((V2, T2), float(lengths.mean()), float(lengths.min()), float(lengths.max()),
                         float(dist.max()), warnings)
 

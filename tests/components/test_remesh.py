@@ -242,3 +242,15 @@ def test_remesh_same_at_every_scale(hypar_grid):
         W2, S2 = isotropic_remesh(V * s + off, T, 0.08 * s, iterations=4)
         assert np.array_equal(S2, T2)
         assert np.abs((W2 - off) / s - V2).max() < 1e-6 * np.ptp(V, axis=0).max()
+
+
+def test_remesh_reports_the_exact_deviation():
+    """``max_deviation`` is the exact distance of the result from the input (not the remesher's local bound, which
+    said 0.0138 on DOS heart at 0.8 of its mean edge where every vertex lies on the input to 4.5e-15)."""
+    V, F = read_mesh(data_file("obj_pq__heart.obj"))
+    T, _ = triangulate(F)
+    h = float(np.linalg.norm(V[edge_topology(T).E[:, 1]] - V[edge_topology(T).E[:, 0]], axis=1).mean())
+    res = remesh((V, T), 0.8 * h)
+    V2 = res.mesh[0]
+    exact = float(np.linalg.norm(TriangleIndex(V, T).query(V2).points - V2, axis=1).max())
+    assert res.max_deviation == exact and exact < 1e-12 * h
