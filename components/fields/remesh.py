@@ -741,6 +741,8 @@ def isotropic_remesh(
         raise InputError("feature_angle", f"must be a finite number between 0 and 180, got {feature_angle!r}")
     boundary_loops(T)  # raises MeshError on non-manifold vertices on the boundary
     V, T, _ = remove_unreferenced(V, T)
+    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
+    V = V - center  # about the bounding box's centre: at site coordinates every step would round at 1e-9
     n = len(V)
     topo = _Topo(T, n)
     bkeys = topo.ekey[topo.count == 1]
@@ -761,7 +763,7 @@ def isotropic_remesh(
         nf = _batches(S, lambda: _flip_valence(S), _MAX_ROUNDS // 5, _TAIL)
         _relax_and_project(S, proj)
         log.debug("remesh iteration %d: %d splits, %d collapses, %d flips, %d vertices", it, ns, nc, nf, S.n)
-    return S.V, S.T
+    return S.V + center, S.T
 
 
 class RemeshResult(NamedTuple):
