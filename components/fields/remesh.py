@@ -398,7 +398,8 @@ class _State:
     def topo(self) -> _Topo:
         """The :class:`_Topo` of ``T``: rebuilt when ``T`` or the vertex count was replaced, or after
         :meth:`changed` (a batch that edited ``T`` in place). A batch that finds nothing to do leaves it for the
-        next operation (the last split and flip batches of an iteration, the relaxation: ~30 % of the rebuilds)."""
+        next operation (the last split and flip batches of an iteration, the relaxation): 116 → 97 rebuilds at
+        200k."""
         t = self._topo
         if t is None or t.T is not self.T or t.n != self.n:
             t = self._topo = _Topo(self.T, self.n)
@@ -735,8 +736,9 @@ def isotropic_remesh(
     collapses (or flips) takes candidates that passed every check and own their two-ring (one-ring), so the checks
     stay valid when the batch is applied at once; the collapses are chosen in up to three rounds, each among the
     candidates not next to one chosen before (the 200k benchmark patch coarsened to twice its edge: 13.0 → 8.7 CPU
-    s; 86 remeshes of the shared meshes 28.1 → 23.2 s, 183 triangles under 5° against 198). Collapses keep the link condition, never create an edge longer
-    than 4/3 L, never turn a face by more than 60°; flips never touch boundary or feature edges.
+    s; 86 remeshes of the shared meshes 28.1 → 23.2 s, 183 triangles under 5° against 198). Collapses keep the link
+    condition, never create an edge longer than 4/3 L, never turn a face by more than 60°; flips never touch
+    boundary or feature edges.
 
     Example
     -------
