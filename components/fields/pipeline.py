@@ -193,6 +193,8 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
         progress.report(0.5, "planarize", until=0.95)
         warnings = list(nxt.warnings)
         left = budget if nxt is first else budget - (time.perf_counter() - t)
+        if nxt is not first and left <= 0.0:  # building the next candidate used up the budget
+            break
         planarized = _planarized(nxt.V, nxt.F, surface, tol, left, closeness_weight, warnings) if planarize else None
         progress.report(0.95, "panel health")
         got = _judged(nxt, target, surface, planarized, planarize, tol, warnings)

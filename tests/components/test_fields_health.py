@@ -428,3 +428,38 @@ def test_the_search_for_a_healthy_candidate_ends_at_the_callers_deadline(monkeyp
     said = [w for w in cut.warnings if w.startswith("the search for a healthy candidate stopped after 1 of the "
                                                      "ranking, cut short by a test's limit of 2.5 s")]
     assert len(said) == 1 and cut.health is not None and not cut.health.healthy
+
+
+def test_a_next_candidate_built_past_the_budget_is_not_planarized(monkeypatch):
+    """When building the next candidate of the ranking (its repair) takes the rest of the planarization budget, the
+    strategy returns what it has: no planarization with a negative budget (lilium at 60 panels through Hops raised
+    "time_budget: must be a finite number >= 0, got -0.0153" for an input the user gave right)."""
+    import time
+
+    import components.fields.pipeline as pipeline
+
+    calls = []
+    real_candidate = pipeline.candidate_mesh
+
+    def first_fails(V, F, *args):
+        calls.append(len(F))
+        args[-1].append("planarization failed (made to fail)")
+        return None
+
+    def slow_alternatives(*args, **kwargs):
+        cand = real_candidate(*args, **kwargs)
+        nxt = cand.alternative
+
+        def slow():
+            time.sleep(0.6)
+            return nxt()
+
+        return cand._replace(alternative=slow)
+
+    monkeypatch.setattr(pipeline, "_planarized", first_fails)
+    monkeypatch.setattr(pipeline, "candidate_mesh", slow_alternatives)
+    V, T = surface("wave")
+    res = pq_from_conjugate_field((V, T), size("wave"), time_budget=0.5)
+    assert len(calls) == 1  # the next one was built after the budget had run out: not planarized
+    assert not res.healthy or res.planarized_max_planarity > 1e-4  # the unplanarized candidate, said as it is
+    assert len(res.planarized[1]) == calls[0]
