@@ -377,9 +377,14 @@ def _repaired(V, T, ranked, target: float, index: TriangleIndex, cut: list):
             continue
         health = candidate_health(r.V, r.F, (V, T))
         if not health.healthy:
-            bad = int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
+            bad = _unhealthy_count(health)
             fewest = bad if fewest is None else min(fewest, bad)
         yield fixed, par, health, r.actions
+
+
+def _unhealthy_count(health) -> int:
+    """What ranks unhealthy candidates: their unhealthy panels, plus one when they cover under 85 % of the surface."""
+    return int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
 
 
 def _healthiest(repaired):
@@ -395,7 +400,7 @@ def _healthiest(repaired):
             continue
         if health.healthy:
             return ex, par, health, repairs
-        bad = int(np.count_nonzero(health.face_defects)) + (health.coverage < 0.85)
+        bad = _unhealthy_count(health)
         if best is None or bad < best[0]:
             best = (bad, (ex, par, health, repairs))
     if best is None:

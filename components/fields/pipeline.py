@@ -237,6 +237,7 @@ def _judged(cand, target: float, surface, planarized, planarize: bool, tol: floa
     """The candidate and its planarization (``None``: not asked for, or the solver failed) judged."""
     V, F = cand.V, cand.F
     q = candidate_quality(V, F, target)
+    solved = planarized is not None
     # not asked for, or the solver failed: the candidate itself
     planarized = planarized or ((V, F), q.max_planarity, q.mean_planarity, 0.0, 0.0)
     (Vp, Fp), pmax = planarized[0], planarized[1]
@@ -244,7 +245,7 @@ def _judged(cand, target: float, surface, planarized, planarize: bool, tol: floa
         warnings.append(f"only {100 * q.quad_ratio:.1f}% of the candidate's faces are quads")
     health = face_health(Vp, Fp, surface, tolerance=tol if planarize else 1e300, name="planarized")
     healthy = shape_healthy(health)
-    warnings += _health_warnings(health, healthy, cand, planarize and Vp is not V)
+    warnings += _health_warnings(health, healthy, cand, solved)
     ok = bool(healthy and pmax <= tol)
     why = (f"max planarity {pmax:.2e}" if healthy else
            f"{int(np.count_nonzero(health.face_defects))} unhealthy panels, coverage {health.coverage:.0%}")
