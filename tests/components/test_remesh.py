@@ -249,7 +249,8 @@ def test_remesh_reports_the_exact_deviation():
     said 0.0138 on DOS heart at 0.8 of its mean edge where every vertex lies on the input to 4.5e-15)."""
     V, F = read_mesh(data_file("obj_pq__heart.obj"))
     T, _ = triangulate(F)
-    h = float(np.linalg.norm(V[edge_topology(T).E[:, 1]] - V[edge_topology(T).E[:, 0]], axis=1).mean())
+    E = edge_topology(T).E
+    h = float(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1).mean())
     res = remesh((V, T), 0.8 * h)
     V2 = res.mesh[0]
     exact = float(np.linalg.norm(TriangleIndex(V, T).query(V2).points - V2, axis=1).max())
