@@ -449,10 +449,13 @@ def _split_long(S: _State, hi: float) -> int:
     return len(se)
 
 
-def _collapse_short(S: _State, lo: float, hi: float) -> int:
+def _collapse_short(S: _State, lo: float, hi: float, salt: int | None = None) -> int:
     """One batch of collapses of short edges that pass every check and have pairwise non-adjacent endpoints.
 
-    The checks run cheapest first, each on the survivors of the previous one.
+    The checks run cheapest first, each on the survivors of the previous one, then the independent set is chosen
+    among the collapses that passed. With a ``salt`` (:func:`decimate`) the independent set is chosen first, among
+    every short edge, by priorities salted with it, and only the chosen collapses are checked: a batch checks a
+    few per cent of the edges, and a collapse that fails is left to a later batch's other priorities.
     """
     topo = S.topo()
     E = topo.E
@@ -479,69 +482,28 @@ def _collapse_short(S: _State, lo: float, hi: float) -> int:
         need = np.where(topo.boundary[opp], 3, 4)
         ok &= ~has | (topo.valence[opp] >= need)
     cand, r, k, con, tr, tk = cand[ok], r[ok], k[ok], con[ok], tr[ok], tk[ok]
+    if salt is not None:
+        if len(cand) == 0:
+            return 0
+        sel, rank = _independent(S, topo, cand, r, k, salt)
+        cand, r, k, con, tr, tk, rank = cand[sel], r[sel], k[sel], con[sel], tr[sel], tk[sel], rank[sel]
     mid = (tr == _FREE) & (tk == _FREE)
     P = np.where(mid[:, None], 0.5 * (V[r] + V[k]), V[k])
-    # no new long edges (from the moved vertex to every neighbour of r and k)
-    o1, n1 = _gather(topo.adj_ptr, topo.adj, r)
-    o2, n2 = _gather(topo.adj_ptr, topo.adj, k)
-    ok = np.ones(len(cand), dtype=bool)
-    # along a boundary or feature curve a longer limit lets the curve lose vertices when its spacing sits just
-    # above 4/3 L (halves below 4/5 L could never merge again); relaxation then evens the curve's spacing
-    limit = np.where(con, _CURVE_SLACK * hi, hi) ** 2
-    for o, nb in ((o1, n1), (o2, n2)):
-        D = P[o] - V[nb]
-        bad = (np.einsum("ij,ij->i", D, D) > limit[o]) & (nb != r[o]) & (nb != k[o])
-        ok &= np.bincount(o[bad], minlength=len(cand)) == 0
-    # link condition: common neighbours = opposite vertices of the edge's faces
-    both = np.sort(np.concatenate([o1 * np.int64(S.n) + n1, o2 * np.int64(S.n) + n2]))
-    dup = both[1:][both[1:] == both[:-1]]
-    ok &= np.bincount(dup // S.n, minlength=len(cand)) == topo.count[cand]
+    ok = _short_and_linked(S, topo, cand, r, k, con, P, hi)
     cand, r, k, con, P = cand[ok], r[ok], k[ok], con[ok], P[ok]
-    # no folded or degenerate faces around r and k
-    ok = np.ones(len(cand), dtype=bool)
-    T0 = S.T
-    FN = cross(V[T0[:, 1]] - V[T0[:, 0]], V[T0[:, 2]] - V[T0[:, 0]])  # every face's normal, once per batch
-    for w in (r, k):
-        o, f = _gather(topo.vf_ptr, topo.vf, w)
-        Tf = T0[f]
-        moved = (Tf == r[o, None]) | (Tf == k[o, None])
-        gone = moved.sum(axis=1) >= 2
-        o, f, Tf, moved = o[~gone], f[~gone], Tf[~gone], moved[~gone]
-        X = [V[Tf[:, j]] for j in range(3)]
-        N_old = FN[f]
-        Po = P[o]
-        Y = [np.where(moved[:, j:j + 1], Po, X[j]) for j in range(3)]
-        N_new = cross(Y[1] - Y[0], Y[2] - Y[0])
-        a_old = np.sqrt(np.einsum("ij,ij->i", N_old, N_old))
-        a_new = np.sqrt(np.einsum("ij,ij->i", N_new, N_new))
-        cosang = np.einsum("ij,ij->i", N_new, N_old) / np.maximum(a_old * a_new, 1e-300)
-        bad = (cosang < _FOLD_COS) | (a_new <= 1e-12 * a_old.max(initial=0.0))
-        ok &= np.bincount(o[bad], minlength=len(cand)) == 0
+    if salt is not None:
+        rank = rank[ok]
+    ok = _unfolded(S, topo, r, k, P)
     cand, r, k, P, con = cand[ok], r[ok], k[ok], P[ok], con[ok]
     if len(cand) == 0:
         return 0
-    # independent set (Luby): the candidate of lowest random priority among the candidates touching the closed
-    # one-rings of its endpoints. Two chosen edges then have no adjacent endpoints, so they share no face and
-    # no checked neighbourhood changes under the other; they can only share an opposite vertex, which would lose
-    # two edges: keep the best collapse at each shared opposite vertex.
+    if salt is None:
+        sel, rank = _independent(S, topo, cand, r, k, None)
+    else:
+        sel, rank = np.ones(len(cand), dtype=bool), rank[ok]
+    # two chosen edges can only share an opposite vertex, which would lose two edges: keep the best collapse at
+    # each shared opposite vertex
     big = np.iinfo(np.int64).max
-    pri = np.full(S.n, big, dtype=np.int64)
-    rank = np.empty(len(cand), dtype=np.int64)
-    rank[np.argsort(_scramble(topo.ekey[cand]), kind="stable")] = np.arange(len(cand))
-    sel = np.zeros(len(cand), dtype=bool)
-    free = np.ones(len(cand), dtype=bool)  # not next to a chosen one
-    for _ in range(_LUBY_ROUNDS):
-        pri[:] = big
-        np.minimum.at(pri, r[free], rank[free])
-        np.minimum.at(pri, k[free], rank[free])
-        reach = _closed_ring_min(topo, pri)
-        sel |= free & (reach[r] == rank) & (reach[k] == rank)
-        taken = np.zeros(S.n, dtype=np.int64)
-        taken[r[sel]] = taken[k[sel]] = -1
-        near = _closed_ring_min(topo, taken) < 0  # a chosen endpoint or its neighbour
-        free &= ~(near[r] | near[k])
-        if not free.any():
-            break
     opp = np.stack([np.where(topo.EH[cand, c] >= 0, S.T[topo.EH[cand, c] // 3, (topo.EH[cand, c] % 3 + 2) % 3], -1)
                     for c in (0, 1)], axis=1)
     best = np.full(S.n + 1, big, dtype=np.int64)
@@ -562,6 +524,78 @@ def _collapse_short(S: _State, lo: float, hi: float) -> int:
         nk = _key(ca, cb)
         S.ckey = np.unique(nk[ca != cb])
     return len(cand)
+
+
+def _short_and_linked(S: _State, topo: _Topo, cand, r, k, con, P, hi: float) -> np.ndarray:
+    """Collapses of ``r`` into ``k`` (at ``P``) that create no edge longer than ``hi`` and keep the link
+    condition."""
+    V = S.V
+    o1, n1 = _gather(topo.adj_ptr, topo.adj, r)
+    o2, n2 = _gather(topo.adj_ptr, topo.adj, k)
+    ok = np.ones(len(cand), dtype=bool)
+    # along a boundary or feature curve a longer limit lets the curve lose vertices when its spacing sits just
+    # above 4/3 L (halves below 4/5 L could never merge again); relaxation then evens the curve's spacing
+    limit = np.where(con, _CURVE_SLACK * hi, hi) ** 2
+    for o, nb in ((o1, n1), (o2, n2)):
+        D = P[o] - V[nb]
+        bad = (np.einsum("ij,ij->i", D, D) > limit[o]) & (nb != r[o]) & (nb != k[o])
+        ok &= np.bincount(o[bad], minlength=len(cand)) == 0
+    # link condition: common neighbours = opposite vertices of the edge's faces
+    both = np.sort(np.concatenate([o1 * np.int64(S.n) + n1, o2 * np.int64(S.n) + n2]))
+    dup = both[1:][both[1:] == both[:-1]]
+    ok &= np.bincount(dup // S.n, minlength=len(cand)) == topo.count[cand]
+    return ok
+
+
+def _unfolded(S: _State, topo: _Topo, r, k, P) -> np.ndarray:
+    """Collapses of ``r`` into ``k`` (at ``P``) that fold or degenerate no face around ``r`` and ``k``."""
+    V, T0 = S.V, S.T
+    ok = np.ones(len(r), dtype=bool)
+    FN = cross(V[T0[:, 1]] - V[T0[:, 0]], V[T0[:, 2]] - V[T0[:, 0]])  # every face's normal, once per batch
+    for w in (r, k):
+        o, f = _gather(topo.vf_ptr, topo.vf, w)
+        Tf = T0[f]
+        moved = (Tf == r[o, None]) | (Tf == k[o, None])
+        gone = moved.sum(axis=1) >= 2
+        o, f, Tf, moved = o[~gone], f[~gone], Tf[~gone], moved[~gone]
+        X = [V[Tf[:, j]] for j in range(3)]
+        N_old = FN[f]
+        Po = P[o]
+        Y = [np.where(moved[:, j:j + 1], Po, X[j]) for j in range(3)]
+        N_new = cross(Y[1] - Y[0], Y[2] - Y[0])
+        a_old = np.sqrt(np.einsum("ij,ij->i", N_old, N_old))
+        a_new = np.sqrt(np.einsum("ij,ij->i", N_new, N_new))
+        cosang = np.einsum("ij,ij->i", N_new, N_old) / np.maximum(a_old * a_new, 1e-300)
+        bad = (cosang < _FOLD_COS) | (a_new <= 1e-12 * a_old.max(initial=0.0))
+        ok &= np.bincount(o[bad], minlength=len(r)) == 0
+    return ok
+
+
+def _independent(S: _State, topo: _Topo, cand, r, k, salt: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Independent set (Luby) of the collapses of ``r`` into ``k``: ``(chosen, rank)``, the rank being the random
+    priority (lowest first). A candidate is chosen when it has the lowest priority among the candidates touching
+    the closed one-rings of its endpoints, in up to :data:`_LUBY_ROUNDS` rounds, each among the candidates not next
+    to one chosen before. Two chosen edges then have no adjacent endpoints, so they share no face and no checked
+    neighbourhood changes under the other."""
+    big = np.iinfo(np.int64).max
+    pri = np.full(S.n, big, dtype=np.int64)
+    rank = np.empty(len(cand), dtype=np.int64)
+    rank[np.argsort(_scramble(topo.ekey[cand], salt or 0), kind="stable")] = np.arange(len(cand))
+    sel = np.zeros(len(cand), dtype=bool)
+    free = np.ones(len(cand), dtype=bool)  # not next to a chosen one
+    for _ in range(_LUBY_ROUNDS):
+        pri[:] = big
+        np.minimum.at(pri, r[free], rank[free])
+        np.minimum.at(pri, k[free], rank[free])
+        reach = _closed_ring_min(topo, pri)
+        sel |= free & (reach[r] == rank) & (reach[k] == rank)
+        taken = np.zeros(S.n, dtype=np.int64)
+        taken[r[sel]] = taken[k[sel]] = -1
+        near = _closed_ring_min(topo, taken) < 0  # a chosen endpoint or its neighbour
+        free &= ~(near[r] | near[k])
+        if not free.any():
+            break
+    return sel, rank
 
 
 def _flip_valence(S: _State) -> int:
@@ -755,22 +789,13 @@ def isotropic_remesh(
     if fa > 180.0:
         raise InputError("feature_angle", f"must be a finite number between 0 and 180, got {feature_angle!r}")
     boundary_loops(T)  # raises MeshError on non-manifold vertices on the boundary
-    V, T, _ = remove_unreferenced(V, T)
-    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
-    V = V - center  # about the bounding box's centre: at site coordinates every step would round at 1e-9
-    n = len(V)
-    topo = _Topo(T, n)
-    bkeys = topo.ekey[topo.count == 1]
-    fe = feature_edges(V, T, fa)
-    ckey = np.unique(np.concatenate([bkeys, _key(fe[:, 0], fe[:, 1])]))
-    vtype = _classify(V, ckey, n, fa)
+    S, center = _start(V, T, fa)
     if not preserve_boundary:
         # boundary vertices still live on the boundary curve, but corners are not protected
-        vtype[(vtype == _CORNER) & topo.boundary] = _CURVE
-    a, b = _unkey(ckey)
-    proj = _Projector(V, T, np.stack([a, b], axis=1))
+        S.vtype[(S.vtype == _CORNER) & S.topo().boundary] = _CURVE
+    a, b = _unkey(S.ckey)
+    proj = _Projector(S.V.copy(), S.T.copy(), np.stack([a, b], axis=1))
     hi, lo = 4.0 / 3.0 * L, 4.0 / 5.0 * L
-    S = _State(V.copy(), T.copy(), ckey, vtype)
     for it in range(int(iterations)):
         ns = _batches(S, lambda: _split_long(S, hi), _MAX_ROUNDS, 0.0)
         nc = _batches(S, lambda: _collapse_short(S, lo, hi), _MAX_ROUNDS // 5, _TAIL)
@@ -778,6 +803,61 @@ def isotropic_remesh(
         nf = _batches(S, lambda: _flip_valence(S), _MAX_ROUNDS // 5, _TAIL)
         _relax_and_project(S, proj)
         log.debug("remesh iteration %d: %d splits, %d collapses, %d flips, %d vertices", it, ns, nc, nf, S.n)
+    return S.V + center, S.T
+
+
+def _start(V: np.ndarray, T: np.ndarray, feature_angle: float) -> tuple[_State, np.ndarray]:
+    """The remeshing state of a mesh (unreferenced vertices dropped, about its bounding box's centre: at site
+    coordinates every step would round at 1e-9) with its boundary and feature curves and vertex classes, and the
+    centre."""
+    V, T, _ = remove_unreferenced(V, T)
+    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
+    V = V - center
+    n = len(V)
+    topo = _Topo(T, n)
+    bkeys = topo.ekey[topo.count == 1]
+    fe = feature_edges(V, T, feature_angle)
+    ckey = np.unique(np.concatenate([bkeys, _key(fe[:, 0], fe[:, 1])]))
+    S = _State(V.copy(), T.copy(), ckey, _classify(V, ckey, n, feature_angle))
+    S._topo = topo
+    return S, center
+
+
+def decimate(V: np.ndarray, T: np.ndarray, target_length: float, feature_angle: float = 45.0,
+             batches: int = 60) -> tuple[np.ndarray, np.ndarray]:
+    """Coarsen a validated triangle mesh towards edges of about ``target_length`` by edge collapses alone.
+
+    The collapses are :func:`isotropic_remesh`'s (same checks: link condition, no edge longer than 4/3 of the
+    target, no face turned by more than 60°, boundary and feature curves kept, corners fixed), chosen independent
+    set first (:func:`_collapse_short` with a salt per batch), then one pass of valence-improving flips; no splits,
+    no relaxation, no projection (a free vertex pair merges at its midpoint, within a fraction of an edge of the
+    input). It stops when a batch collapses under 2 % of the first batch's count, or after ``batches`` batches.
+    A cheap coarse version of a fine mesh of the same surface, for a field that varies on a larger scale than the
+    mesh (:func:`components.fields.parametrize.direction_field`); the triangles are not as even as a remesh's.
+    Returns ``(V2, T2)`` with the input's orientation, boundary loops and Euler characteristic.
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(20, 20)
+    >>> T = triangulate(Q)[0]
+    >>> V2, T2 = decimate(V, T, 0.1)
+    >>> len(T2) < len(T) / 2, bool(np.allclose(V2[:, 2], 0.0))
+    (True, True)
+    """
+    S, center = _start(V, T, feature_angle)
+    L = float(target_length)
+    hi, lo = 4.0 / 3.0 * L, 4.0 / 5.0 * L
+    first = 0
+    for i in range(batches):
+        k = _collapse_short(S, lo, hi, salt=i + 1)
+        if k:
+            S.changed()
+        first = first or k
+        if k == 0 or k < 0.02 * first:
+            break
+    _compact(S)
+    _batches(S, lambda: _flip_valence(S), _MAX_ROUNDS // 5, _TAIL)
     return S.V + center, S.T
 
 

@@ -8,7 +8,7 @@ from components.core.checks import validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.mesh import boundary_loops, edge_topology, read_mesh, triangulate
 from components.core.proximity import TriangleIndex, closest_points_on_polyline
-from components.fields.remesh import feature_edges, isotropic_remesh, remesh
+from components.fields.remesh import decimate, feature_edges, isotropic_remesh, remesh
 from tests.conftest import data_file
 
 
@@ -255,3 +255,49 @@ def test_remesh_reports_the_exact_deviation():
     V2 = res.mesh[0]
     exact = float(np.linalg.norm(TriangleIndex(V, T).query(V2).points - V2, axis=1).max())
     assert res.max_deviation == exact and exact < 1e-12 * h
+
+
+def _decimation_checks(V, T, V2, T2, L):
+    """The coarse copy keeps the surface's topology and orientation, its boundary and its corners, and lies within
+    a fraction of an edge of the input."""
+    V2, T2 = validate_mesh(V2, T2, name="coarse", kind="tri")  # manifold, oriented, no degenerate faces
+    assert len(boundary_loops(T2)) == len(boundary_loops(T))
+    assert _chi(V2, T2) == _chi(V, T)
+    index = TriangleIndex(V, T)
+    assert index.query(V2).distances.max() <= 0.5 * L  # a midpoint collapse leaves the surface by a fraction
+    qf = index.query(V2[T2].mean(axis=1))
+    N_in = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])[qf.faces]
+    N_out = np.cross(V2[T2[:, 1]] - V2[T2[:, 0]], V2[T2[:, 2]] - V2[T2[:, 0]])
+    assert np.all(np.einsum("ij,ij->i", N_in, N_out) > 0)
+    return _mean_edge(V2, T2)
+
+
+@pytest.mark.parametrize("factor", [1.6, 2.5])
+def test_decimate_coarsens_keeping_topology_boundary_and_corners(factor):
+    V0 = np.stack(np.meshgrid(np.linspace(-1, 1, 61), np.linspace(-1, 1, 61)), -1).reshape(-1, 2)
+    V = np.column_stack([V0, 0.4 * V0[:, 0] * V0[:, 1] + 0.2 * np.sin(2 * V0[:, 0])])
+    T = _grid_tris(60, 60)
+    cen = V[T].mean(axis=1)
+    T = T[np.hypot(cen[:, 0] - 0.3, cen[:, 1] + 0.2) > 0.25]  # a hole: two boundary loops
+    V, T = validate_mesh(*(lambda u: (V[u], np.searchsorted(u, T)))(np.unique(T)), name="mesh", kind="tri")
+    L = factor * _mean_edge(V, T)
+    V2, T2 = decimate(V, T, L)
+    mean = _decimation_checks(V, T, V2, T2, L)
+    assert 0.8 * L <= mean <= 1.1 * L
+    assert len(T2) < len(T) / (0.6 * factor * factor)
+    for c in ([-1, -1], [1, -1], [1, 1], [-1, 1]):  # the square's corners turn by 90°: kept exactly
+        i = np.flatnonzero(np.all(V[:, :2] == c, axis=1))[0]
+        assert np.min(np.linalg.norm(V2 - V[i], axis=1)) == 0.0
+
+
+def test_decimate_real_mesh_and_same_at_every_scale():
+    V, F = read_mesh(data_file("lilium.obj"))
+    V, T = validate_mesh(V, triangulate(F)[0], name="mesh", kind="tri")
+    L = 2.0 * _mean_edge(V, T)
+    V2, T2 = decimate(V, T, L)
+    _decimation_checks(V, T, V2, T2, L)
+    size = float(np.linalg.norm(np.ptp(V, axis=0)))
+    for scale, shift in ((1000.0, 0.0), (0.001, 0.0), (1.0, 5e6)):
+        V3, T3 = decimate(V * scale + shift, T, L * scale)
+        assert np.array_equal(T3, T2)
+        assert np.abs((V3 - shift) / scale - V2).max() <= 1e-9 * size
