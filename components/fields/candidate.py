@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 from functools import partial
+from itertools import islice
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -27,7 +28,7 @@ from components.core import deadline, progress
 from components.core.errors import InputError
 from components.core.measures import cross, quad_planarity
 from components.core.mesh import edge_topology, face_sizes, triangulate
-from components.core.parallel import concurrently
+from components.core.parallel import concurrently, for_each
 from components.core.proximity import TriangleIndex
 from components.core.types import Mesh, Texts
 from components.fields.extract import (
@@ -191,8 +192,7 @@ def _best_first(V, T, tried: list, target: float, index: TriangleIndex):
         if best is None or s > done[best][2] or (s == done[best][2] and i < best):
             best = i
     yield done[best][:2]
-    for i in range(n):
-        finish(i)
+    for_each(finish, [i for i in range(n) if i not in done])  # the others at once, on both cores (each its own)
     rest = sorted((i for i in range(n) if i != best), key=lambda i: done[i][2], reverse=True)  # stable
     for i in rest:
         yield done[i][:2]
@@ -349,17 +349,27 @@ def _repaired(V, T, ranked, target: float, index: TriangleIndex, cut: list):
     candidate whose repair leaves as many unhealthy panels as the best unhealthy one so far, while none was healthy,
     is yielded with ``health`` None (not checked against the surface: it cannot win).
 
-    Under a caller's deadline (:mod:`components.core.deadline`, e.g. the server's time limit per solve) the next
-    candidate is repaired only while the time left holds twice the last repair (it, and as long for the
-    planarization); else the ranking ends there and ``cut`` gets the warning. (A panel size near the mesh's edge
+    The best-ranked candidate is repaired alone, the next ones two at a time (two cores; the results and their
+    order are those of one at a time). Under a caller's deadline (:mod:`components.core.deadline`, e.g. the
+    server's time limit per solve) the next ones are repaired only while the time left holds twice the last
+    repairs (them, and as long for the planarization); else the ranking ends there and ``cut`` gets the warning. (A panel size near the mesh's edge
     length made every repair slow and none healthy: 6 × 13 s on a 43k-triangle patch at 1.24 mesh edges per
     panel, 88 s for the candidate, past the server's 90 s.)"""
     fewest = None  # unhealthy panels of the best unhealthy candidate so far
     last, k = 0.0, 0
-    for ex, par in ranked:
-        if len(ex.F) == 0:
-            yield ex, par, None, {}
-            continue
+    items = iter(ranked)
+
+    def repair(item):
+        ex = item[0]
+        return None if len(ex.F) == 0 else repaired_candidate(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target,
+                                                               index=index)
+
+    while True:
+        # the best-ranked one alone (it is usually healthy); after it, two at a time on two cores (the same
+        # repairs, in the same order: the second is wasted only when the first is healthy)
+        batch = list(islice(items, 2 if k else 1))
+        if not batch:
+            return
         if k:
             _, why = deadline.capped(2.0 * last)
             if why is not None:
@@ -367,19 +377,25 @@ def _repaired(V, T, ranked, target: float, index: TriangleIndex, cut: list):
                            f"(each repair took about {last:.3g} s)")
                 return
         t = time.perf_counter()
-        r = repaired_candidate(V, T, ex.V, ex.F, ex.tri, ex.bary, ex.grid, target, index=index)
-        last, k = time.perf_counter() - t, k + 1
-        fixed = ex._replace(V=r.V, F=r.F, tri=r.tri, bary=r.bary, grid=r.grid)
-        # the check against the surface adds defects (flipped faces, coverage) to the shape checks the repair
-        # measured last: a candidate with as many unhealthy faces as the best one already cannot win
-        if fewest is not None and int(np.count_nonzero(r.health.face_defects)) >= fewest:
-            yield fixed, par, None, r.actions
-            continue
-        health = candidate_health(r.V, r.F, (V, T))
-        if not health.healthy:
-            bad = _unhealthy_count(health)
-            fewest = bad if fewest is None else min(fewest, bad)
-        yield fixed, par, health, r.actions
+        done = concurrently(*(partial(repair, item) for item in batch))
+        if any(r is not None for r in done):
+            last = time.perf_counter() - t
+        for (ex, par), r in zip(batch, done):
+            if r is None:
+                yield ex, par, None, {}
+                continue
+            k += 1
+            fixed = ex._replace(V=r.V, F=r.F, tri=r.tri, bary=r.bary, grid=r.grid)
+            # the check against the surface adds defects (flipped faces, coverage) to the shape checks the repair
+            # measured last: a candidate with as many unhealthy faces as the best one already cannot win
+            if fewest is not None and int(np.count_nonzero(r.health.face_defects)) >= fewest:
+                yield fixed, par, None, r.actions
+                continue
+            health = candidate_health(r.V, r.F, (V, T))
+            if not health.healthy:
+                bad = _unhealthy_count(health)
+                fewest = bad if fewest is None else min(fewest, bad)
+            yield fixed, par, health, r.actions
 
 
 def _unhealthy_count(health) -> int:
