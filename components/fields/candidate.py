@@ -289,7 +289,7 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     progress.report(0.0, "direction field")
     t = time.perf_counter()
     U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons,
-                           release_separation=release_separation)
+                           release_separation=release_separation, resolution=target)
     timings["field"] = time.perf_counter() - t
     progress.report(0.3, "parametrization and quad extraction")
     t = time.perf_counter()

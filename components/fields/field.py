@@ -55,8 +55,10 @@ from components.core.blas import single_blas_thread
 from components.core.memo import ContentCache, digest
 from components.core.checks import check_int, check_mesh, check_number, validate_mesh
 from components.core.errors import InputError
+from components.core.measures import unit
 from components.core.mesh import triangulate
 from components.core.parallel import concurrently, for_each
+from components.core.proximity import TriangleIndex
 from components.core.types import Lines, Mesh, Numbers, Points, Vectors
 from components.fields import conjugate_kernels as kernels
 
@@ -71,9 +73,11 @@ __all__ = [
     "conjugate_field",
     "field_curvature",
     "field_matching",
+    "closest_conjugate_pairs",
     "field_singularities",
     "smooth_field",
     "smooth_frame_field",
+    "transferred_field",
 ]
 
 _AREA_SCALE = 1000.0  # per-face weights: alignment · 1000 · (face area / total area)
@@ -1175,6 +1179,90 @@ def _far_faces(pb: _ConjugateProblem, pu, pv, u, v, active: np.ndarray, release_
     if pb.fixed is not None:
         out[pb.fixed[0]] = False
     return out
+
+
+# ----------------------------------------------------------------------------------------------
+# a field computed on a coarser mesh of the same surface
+
+def transferred_field(V: np.ndarray, T: np.ndarray, Vc: np.ndarray, Tc: np.ndarray, Uc: np.ndarray,
+                      Wc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A field ``Uc, Wc`` of a coarse mesh ``(Vc, Tc)`` carried to a finer mesh ``(V, T)`` of the same surface.
+
+    The coarse pairs' PolyVector coefficients are averaged at the coarse vertices (area-weighted, each face's
+    turned into the vertex's tangent frame), then every fine face takes the linear interpolation of its closest
+    coarse point's three vertex coefficients, turned into its own frame. The result is continuous over the coarse
+    mesh: a fine face whose closest point lies on a coarse edge gets the same pair from either side (a nearest-face
+    copy made a rounding tie between the two faces a visible choice: the same mesh in mm and m got fields 1.5°
+    apart). Returns the combed unit ``U, W`` per fine face. Both meshes validated.
+    """
+    frc = face_frames(Vc, Tc)
+    u, v = to_complex(Uc, frc), to_complex(Wc, frc)
+    au, av = np.abs(u), np.abs(v)
+    u, v = np.where(au > 0, u / np.where(au > 0, au, 1.0), 1.0), np.where(av > 0, v / np.where(av > 0, av, 1.0), 1j)
+    Xc, Yc = _poly(u, v)
+    # vertex frames: the area-weighted normal, and the first incident face's first axis laid into its plane
+    nc, mc = len(Vc), len(Tc)
+    N = np.zeros((nc, 3))
+    for j in range(3):
+        np.add.at(N, Tc[:, j], frc.n * frc.area[:, None])
+    n_v = unit(N)
+    first = np.full(nc, mc, dtype=np.int64)
+    for j in range(3):
+        np.minimum.at(first, Tc[:, j], np.arange(mc))
+    e1_v = unit(_in_plane(frc.e1[first], n_v))
+    e2_v = np.cross(n_v, e1_v)
+    # the faces' coefficients averaged at their corners' vertices, each turned by its axis's angle there
+    corner_v = Tc.ravel()
+    corner_f = np.repeat(np.arange(mc), 3)
+    p = _in_plane(frc.e1[corner_f], n_v[corner_v])
+    turn = np.exp(1j * np.arctan2(np.einsum("ij,ij->i", p, e2_v[corner_v]), np.einsum("ij,ij->i", p, e1_v[corner_v])))
+    w = frc.area[corner_f] / np.bincount(corner_v, frc.area[corner_f], nc)[corner_v]  # the weights sum to 1
+    Xv, Yv = (np.bincount(corner_v, (w * Z).real, nc) + 1j * np.bincount(corner_v, (w * Z).imag, nc)
+              for Z in (Xc[corner_f] * turn ** 4, Yc[corner_f] * turn ** 2))  # (X, Y scaled alike move the roots)
+    # every fine face: the coarse vertices' coefficients at its centroid's closest point, in its frame
+    fr, dg = _frames(V, T)
+    q = TriangleIndex(Vc, Tc).query(fr.centroid)
+    X = np.zeros(len(T), dtype=complex)
+    Y = np.zeros(len(T), dtype=complex)
+    for j in range(3):
+        vj = Tc[q.faces, j]
+        p = _in_plane(e1_v[vj], fr.n)
+        turn = np.exp(1j * np.arctan2(np.einsum("ij,ij->i", p, fr.e2), np.einsum("ij,ij->i", p, fr.e1)))
+        X += q.barycentric[:, j] * Xv[vj] * turn ** 4
+        Y += q.barycentric[:, j] * Yv[vj] * turn ** 2
+    u, v = _roots(X, Y)
+    fld = _finish(V, T, u, v, fr, dg, None, None, diagnostics=False)
+    return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
+
+
+def closest_conjugate_pairs(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.ndarray,
+                            curvature: FieldCurvature | None = None, min_angle: float = np.radians(25.0),
+                            align_boundary: bool = True, release_angle: float = np.radians(20.0),
+                            release_separation: float = np.radians(45.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Every face's closest conjugate pair to the field ``U, W`` (the last local step of
+    :func:`conjugate_frame_field`, its options alike), where conjugacy matters (curved faces) and the pair is
+    within ``release_angle`` of the field and ``release_separation`` wide; elsewhere the field's own pair. A
+    smooth field made conjugate face by face, as :func:`conjugate_frame_field` returns its last smoothed field
+    (here: a coarse copy's conjugate field carried over by :func:`transferred_field`). Returns unit ``U, W``."""
+    V, T = validate_mesh(V, T, name="mesh", kind="tri")
+    m = len(T)
+    U, W = check_field(U, W, m)
+    fr, dg = _frames(V, T)
+    cv = _curvature_arg(curvature, V, T, 2, m)
+    ls = _local_step(_principal_complex(cv, fr), cv.k1, cv.k2, min_angle,
+                     _boundary_tangents(V, dg, fr, m) if align_boundary else None, np.full(m, 10.0))
+    u, v = to_complex(U, fr), to_complex(W, fr)
+    u, v = u / np.abs(u), v / np.abs(v)
+    pu, pv, _ = _closest_conjugate(u, v, ls)
+    keep = (_conjugacy_weights(cv) > 0) & (_line_angle(pu, pv) >= release_separation)
+    keep &= _pair_deviation(pu, pv, u, v) <= release_angle
+    fld = _finish(V, T, np.where(keep, pu, u), np.where(keep, pv, v), fr, dg, cv, None, diagnostics=False)
+    return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
+
+
+def _in_plane(X: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Rows of ``X`` with their components along the unit rows of ``n`` removed."""
+    return X - np.einsum("ij,ij->i", X, n)[:, None] * n
 
 
 # ----------------------------------------------------------------------------------------------

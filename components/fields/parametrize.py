@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import logging
 import time
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -55,9 +56,12 @@ from components.core.curvature import face_principal_curvature, vertex_principal
 from components.core.errors import InputError, MeshError
 from components.core.measures import cross, unit
 from components.core.mesh import boundary_loops, edge_topology, triangulate
+from components.core.parallel import concurrently
 from components.core.types import Curves, Mesh, Points
 from components.fields.extract import iso_segments
-from components.fields.field import conjugate_frame_field, field_curvature, smooth_frame_field
+from components.fields.field import (closest_conjugate_pairs, conjugate_frame_field, field_curvature,
+                                     smooth_frame_field, transferred_field)
+from components.fields.remesh import decimate
 
 log = logging.getLogger(__name__)
 
@@ -183,7 +187,8 @@ def _smoothed_principal_field(V: np.ndarray, T: np.ndarray, alignment: float, co
 
 @single_blas_thread()  # sparse factorizations: see components.core.blas
 def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alignment: float = 0.1,
-                    constraints=None, release_separation: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    constraints=None, release_separation: float | None = None,
+                    resolution: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per-face field directions ``U, W`` for the parametrization (:mod:`components.fields.field`, or principal).
 
     Parameters
@@ -203,6 +208,15 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
         Prescribed directions on some faces.
     release_separation : float, optional
         Passed to :func:`~components.fields.field.conjugate_frame_field` (its default when omitted).
+    resolution : float, optional
+        The smallest length (model units) the field must resolve, e.g. the panel size. Given, a mesh of more than
+        :data:`TWO_LEVEL_FACES` triangles without constraints gets the ``"conjugate"`` or ``"smooth"`` field of a
+        coarser copy (:func:`~components.fields.remesh.decimate` to about :data:`COARSE_FACES` triangles, its
+        edges at most ``resolution / 1.25``), carried to its faces
+        (:func:`~components.fields.field.transferred_field`) and, for ``"conjugate"``, made conjugate face by face
+        (:func:`~components.fields.field.closest_conjugate_pairs`): the field varies on the surface's scale, not
+        the mesh's, and its solves grow faster than the mesh (the 500k-triangle benchmark patch: 41 s and 3.4 GB →
+        18 s).
 
     Returns
     -------
@@ -220,6 +234,18 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
     """
     if field == "principal":
         return _smoothed_principal_field(V, T, alignment, constraints)
+    edge = _coarse_edge(V, T, resolution) if constraints is None else None
+    if edge is not None:
+        # the coarse copy and the mesh's own curvature (for its conjugate pairs) at the same time, on two cores
+        (Vc, Tc), cv = concurrently(partial(decimate, V, T, edge),
+                                    partial(field_curvature, V, T) if field == "conjugate" else lambda: None)
+        log.debug("direction_field: the field of a %d-triangle copy (edge %.3g)", len(Tc), edge)
+        Uc, Wc = direction_field(Vc, Tc, field=field, alignment=alignment, release_separation=release_separation)
+        U, W = transferred_field(V, T, Vc, Tc, Uc, Wc)
+        if field == "conjugate":  # conjugate face by face on the mesh itself, as the field's own last step
+            extra = {} if release_separation is None else {"release_separation": release_separation}
+            U, W = closest_conjugate_pairs(V, T, U, W, curvature=cv, **extra)
+        return U, W
     cv = field_curvature(V, T)  # once for both fields
     # the directions only: the fields' singularities and errors are not needed here
     fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints, curvature=cv, diagnostics=False)
@@ -228,6 +254,28 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
         fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, curvature=cv, diagnostics=False,
                                     **extra)
     return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
+
+
+# direction_field: meshes above this many triangles get a coarse copy's field. Measured 2026-12 on the benchmark
+# patch (benchmarks/fields.py): at 500k triangles the mesh's own field takes 41 s and 3.4 GB, the coarse copy's 18 s
+# (pq_from_conjugate_field 87 s, 2.9 GB); at 200k 13-14 s against 6-7 s, and over 23 seeds of the 200k patch the
+# pipeline took 34.9 s on average against 42.0 s, but its best-ranked candidates were healthy after repair less
+# often (11 of 23 kept the nominal density, against 16 of 22) and 3 results fell short (2 unhealthy, 1 not
+# converged) against 1: below this size the mesh's own field is affordable and the better one.
+TWO_LEVEL_FACES = 300_000
+COARSE_FACES = 50_000  # ... decimated to about this many triangles
+_COARSE_MIN = 1.25  # ... only when that makes its edges at least this × the mesh's mean edge
+
+
+def _coarse_edge(V: np.ndarray, T: np.ndarray, resolution: float | None) -> float | None:
+    """The edge length of the coarse copy of a large mesh for :func:`direction_field`'s field, or None (small
+    mesh, no resolution given, or no real coarsening within it)."""
+    m = len(T)
+    if resolution is None or m <= TWO_LEVEL_FACES:
+        return None
+    mean_edge = float(np.mean(np.linalg.norm(V[T] - V[np.roll(T, -1, axis=1)], axis=2)))
+    edge = min(mean_edge * np.sqrt(m / COARSE_FACES), float(resolution) / 1.25)
+    return edge if edge >= _COARSE_MIN * mean_edge else None
 
 
 # ----------------------------------------------------------------------------------------------

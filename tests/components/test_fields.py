@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from components.fields.field import (
+    closest_conjugate_pairs,
     comb_field,
     conjugacy_error,
     conjugate_field,
@@ -14,6 +15,7 @@ from components.fields.field import (
     field_singularities,
     smooth_field,
     smooth_frame_field,
+    transferred_field,
 )
 from components.core.errors import InputError, MeshError
 from components.core.mesh import read_mesh, triangulate
@@ -458,3 +460,84 @@ def test_normalization_separates_merged_singularities():
     assert spread(spread_out) > 2 * spread(linear)
     with pytest.raises(InputError, match="normalize_iterations"):
         smooth_frame_field(V, T, normalize_iterations=-1)
+
+
+# ----------------------------------------------------------------------------------------------
+# the field of a coarse copy (large meshes)
+
+
+def _line_pair_angle(U1, W1, U2, W2):
+    """Degrees between two pairs of lines per face (the better of the two matchings)."""
+    a = lambda A, B: np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", A, B)), 0, 1)))  # noqa: E731
+    return np.minimum(np.maximum(a(U1, U2), a(W1, W2)), np.maximum(a(U1, W2), a(W1, U2)))
+
+
+def test_a_field_transferred_to_its_own_mesh_stays_the_same_away_from_singularities():
+    V, T, _ = sample_mesh("canopy", 40)
+    s = smooth_frame_field(V, T)
+    U, W = transferred_field(V, T, V, T, s.U, s.W)
+    assert _unit_rows(U) and _unit_rows(W)
+    n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    assert np.abs(np.einsum("ij,ij->i", U, n)).max() < 1e-9 * np.abs(n).max()
+    ang = _line_pair_angle(U, W, s.U, s.W)
+    assert np.median(ang) < 0.5 and np.percentile(ang, 90) < 2.0
+
+
+def test_a_constant_field_is_transferred_exactly_on_a_plane():
+    """On a plane every frame lies in the same plane: a constant pair must arrive unchanged (the vertex averages
+    are normalized: X and Y scaled alike would move the roots)."""
+    from components.core.mesh import quad_grid
+    from components.fields.remesh import decimate
+
+    V, Q = quad_grid(40, 40, 1.0, 1.0)
+    T = triangulate(Q)[0]
+    Vc, Tc = decimate(V, T, 0.06)
+    assert len(Tc) < len(T) / 3
+    d1, d2 = np.array([1.0, 0.3, 0.0]), np.array([-0.2, 1.0, 0.0])
+    Uc, Wc = np.tile(d1 / np.linalg.norm(d1), (len(Tc), 1)), np.tile(d2 / np.linalg.norm(d2), (len(Tc), 1))
+    U, W = transferred_field(V, T, Vc, Tc, Uc, Wc)
+    assert _line_pair_angle(U, W, Uc[:1].repeat(len(T), 0), Wc[:1].repeat(len(T), 0)).max() < 1e-4
+
+
+@pytest.mark.parametrize("name", ["saddle", "wave", "canopy"])
+def test_closest_conjugate_pairs_make_a_smooth_field_conjugate_where_conjugacy_matters(name):
+    V, T, _ = sample_mesh(name, 40)
+    cv = field_curvature(V, T)
+    s = smooth_frame_field(V, T, curvature=cv)
+    U, W = closest_conjugate_pairs(V, T, s.U, s.W, curvature=cv)
+    assert _unit_rows(U) and _unit_rows(W)
+    err = conjugacy_error(U, W, cv)
+    conj = err < 1e-9
+    moved = _line_pair_angle(U, W, s.U, s.W)
+    # a face is either made conjugate, within the release angle of the smooth pair, or keeps the smooth pair
+    assert np.all(conj | (moved < 1e-4))
+    assert np.all(moved[conj] <= 20.0 + 1e-6)
+    assert np.mean(conj) > (0.6 if name == "wave" else 0.75)
+    ang = np.degrees(np.arccos(np.abs(np.einsum("ij,ij->i", U, W))))
+    assert ang[conj & (moved > 1e-4)].min() >= 45.0 - 1e-6  # narrower pairs are released
+
+
+def test_direction_field_of_a_coarse_copy_follows_the_fine_field_at_every_scale(monkeypatch):
+    from components.fields import parametrize
+
+    V, T, _ = sample_mesh("canopy", 80)  # 9289 triangles: made "large" below
+    mean_edge = float(np.mean(np.linalg.norm(V[T] - V[np.roll(T, -1, axis=1)], axis=2)))
+    fine = parametrize.direction_field(V, T, resolution=5 * mean_edge)  # under the threshold: the mesh's own
+    monkeypatch.setattr(parametrize, "TWO_LEVEL_FACES", 5000)
+    monkeypatch.setattr(parametrize, "COARSE_FACES", 2500)
+    built = []
+    real = parametrize.decimate
+    monkeypatch.setattr(parametrize, "decimate", lambda *a: built.append(len(a[1])) or real(*a))
+    U, W = parametrize.direction_field(V, T, resolution=5 * mean_edge)
+    assert built == [len(T)]  # the coarse copy was made
+    assert _unit_rows(U) and _unit_rows(W)
+    assert np.mean(conjugacy_error(U, W, field_curvature(V, T)) < 1e-9) > 0.8  # conjugate on the mesh itself
+    ang = _line_pair_angle(U, W, *fine)
+    assert np.mean(ang) < 5.0 and np.median(ang) < 3.0
+    # no coarse copy without a resolution, or when the resolution leaves no real coarsening
+    parametrize.direction_field(V, T)
+    parametrize.direction_field(V, T, resolution=1.5 * mean_edge)
+    assert built == [len(T)]
+    for scale in (1000.0, 0.001):  # (site coordinates: the candidate centres the mesh before its field)
+        U2, W2 = parametrize.direction_field(V * scale, T, resolution=5 * mean_edge * scale)
+        assert _line_pair_angle(U2, W2, U, W).max() < 1e-4

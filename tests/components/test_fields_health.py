@@ -463,3 +463,27 @@ def test_a_next_candidate_built_past_the_budget_is_not_planarized(monkeypatch):
     assert len(calls) == 1  # the next one was built after the budget had run out: not planarized
     assert not res.healthy or res.planarized_max_planarity > 1e-4  # the unplanarized candidate, said as it is
     assert len(res.planarized[1]) == calls[0]
+
+
+def test_the_field_of_a_coarse_copy_gives_a_healthy_result_in_every_unit(monkeypatch):
+    """A large mesh's field comes from a decimated copy (here the thresholds lowered so that a 9k-triangle sample
+    counts as large): the strategy still returns healthy planar panels, the same in mm as in m."""
+    from components.fields import parametrize
+    from components.surfaces.samples import sample_mesh
+
+    monkeypatch.setattr(parametrize, "TWO_LEVEL_FACES", 5000)
+    monkeypatch.setattr(parametrize, "COARSE_FACES", 2500)
+    built = []
+    real = parametrize.decimate
+    monkeypatch.setattr(parametrize, "decimate", lambda *a: built.append(len(a[1])) or real(*a))
+    V, T, _ = sample_mesh("canopy", 80)
+    h = 5.0 * float(np.mean(np.linalg.norm(V[T] - V[np.roll(T, -1, axis=1)], axis=2)))
+    got = []
+    for scale in (1.0, 1000.0):
+        res = pq_from_conjugate_field((V * scale, T), h * scale, time_budget=20.0)
+        assert res.healthy and res.planarized_max_planarity <= 1e-4, res.warnings
+        assert res.coverage >= 0.95
+        got.append((len(res.planarized[1]), res.planarized[0] / scale))
+    assert built == [len(T), len(T)]
+    assert got[0][0] == got[1][0]
+    assert np.abs(got[0][1] - got[1][1]).max() <= 1e-6 * h
