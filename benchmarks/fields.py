@@ -109,6 +109,30 @@ tie; 2.4e-9 with one round); with the remesher working about the input's centre 
 was 0.9-1.2e-9) they hold the placement test and were adopted: x2 13.0 → 8.7 s, x1.41 8.1 → 7.0 s, the shared
 meshes' 86 remeshes 28.1 → 23.2 CPU s with 183 triangles under 5° against 198 (794 under 20° against 804).
 
+Session 17 (another 2-core machine, AMD EPYC; the 20k row takes 3.4-4.2 s here where session 16's machine took
+2.5-3.0 s for the same result): 20k 3.39 s (1406 faces, 9.03e-5, healthy), 200k 33.8 s (field 12.2, param 3.5,
+extract 5.9, planarize 11.7; 12451 faces, 9.45e-5, healthy, coverage 1.000), 1.56 GB; 500k (new row) 86.5 s (field
+17.4 from a decimated copy, param 9.6, extract 25.6, planarize 32.9: not converged, 2.0e-3 at the 30 s budget, healthy),
+2.8 GB. The 200k row is a lucky seed: over 23 seeds of the 200k patch (``patch(200000, seed)``, the same call by
+hand) the pipeline took 42.0 s on average (median 39.1, 31.9-59.5), one not converged; the tails are repairs (at
+12-15k panels the best-ranked candidates often keep 1-5 unhealthy panels after repair, e.g. a boundary pentagon with
+two 167° corners, faces folded onto a neighbour, and the next ones are repaired in turn) and planarizations that
+use the whole 30 s budget. Changes: (1) after the best-ranked candidate the next ones are repaired two at a time and
+the rest of the ranking relaxed at once (bit-identical; seed 3: extraction 17.3 → 12.8 s). (2) A field from a coarse
+copy (components.fields.remesh.decimate to about 50k triangles in 2.3 s at 200k, then transferred_field and
+closest_conjugate_pairs): the field 13-14 → 6-7 s at 200k, 41 s / 3.4 GB → 18 s at 500k. At 200k over the same 23
+seeds: 34.9 s on average (median 33.2; faster on 17 of 23), but the best-ranked candidates kept the nominal
+density less often (11 of 23 against 16 of 22) and 3 results fell short (2 unhealthy with one panel each, 1 not
+converged) against 1, seed 0 (this row) among them: not converged at the budget in 53.5 s. So it applies above
+300k triangles only (components.fields.parametrize.TWO_LEVEL_FACES), where the mesh's own field no longer fits a
+request's time. Tried: a nearest-face copy smoothed by 80 damped Jacobi sweeps (3° from the mesh's own field; seeds
+0-6: one planarization not converged); the interpolated transfer without the conjugate step on the mesh (seeds
+7-14: planarizations 10-31 s, 2 of 8 not converged, against 9.7-36 s and 1: a field conjugate on the coarse copy is
+not conjugate on the mesh); 3 local-global iterations with Jacobi global steps after the transfer (smoother, 0.00197
+against 0.00232 in the connection Laplacian's energy, no closer to the mesh's own field: 2.94° against 2.95°; not
+run through the pipeline); 6 or 10 selection rounds in the decimation (not faster: its batches are limited by the
+checks).
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
