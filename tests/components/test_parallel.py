@@ -126,6 +126,60 @@ def test_the_candidate_is_bit_identical_on_one_and_two_threads(monkeypatch):
     assert out["1"] == out["2"]
 
 
+def test_candidates_repaired_two_at_a_time_are_those_of_one_at_a_time(monkeypatch):
+    """With the first candidates judged unhealthy the search repairs the ranking two at a time after the first:
+    the same repairs, judged in the same order, and the same candidate as on one thread."""
+    from components.fields import candidate as C
+
+    V, T = _wavy(30)
+    real, real_ranked, real_repair = C.candidate_health, C._best_first, C.repaired_candidate
+    out = {}
+    for n in ("1", "2"):
+        monkeypatch.setenv(parallel.ENV_THREADS, n)
+        judged = []
+
+        def health(Vc, Fc, ref, judged=judged):  # the first three judged unhealthy, every panel
+            judged.append(_sha(Vc, Fc))
+            h = real(Vc, Fc, ref)
+            bad = np.ones_like(h.face_defects)
+            return h._replace(healthy=False, face_defects=bad) if len(judged) <= 3 else h
+
+        ranking, repaired = [], {}
+
+        def ranked(*a, ranking=ranking):
+            for ex, par in real_ranked(*a):
+                ranking.append(_sha(ex.V, ex.F))
+                yield ex, par
+
+        def repair(V, T, Vc, Fc, *a, repaired=repaired, **k):
+            r = real_repair(V, T, Vc, Fc, *a, **k)
+            repaired[_sha(Vc, Fc)] = _sha(r.V, r.F)
+            return r
+
+        monkeypatch.setattr(C, "candidate_health", health)
+        monkeypatch.setattr(C, "_best_first", ranked)
+        monkeypatch.setattr(C, "repaired_candidate", repair)
+        c = candidate_mesh((V, T), 0.6, boundary="auto", repair=True)
+        out[n] = (judged, _sha(c.V, c.F))
+        # judged in the ranking's order, as one at a time would
+        assert judged == [repaired[h] for h in ranking if h in repaired][:len(judged)]
+    assert len(out["1"][0]) >= 4
+    assert out["1"] == out["2"]
+
+
+def test_the_coarse_copys_field_is_bit_identical_on_one_and_two_threads(monkeypatch):
+    from components.fields import parametrize
+
+    monkeypatch.setattr(parametrize, "TWO_LEVEL_FACES", 2000)  # the coarse copy and the curvature side by side
+    monkeypatch.setattr(parametrize, "COARSE_FACES", 1000)
+    V, T = _wavy(40)
+    out = {}
+    for n in ("1", "2"):
+        monkeypatch.setenv(parallel.ENV_THREADS, n)
+        out[n] = _sha(*direction_field(V, T, field="conjugate", resolution=0.6))
+    assert out["1"] == out["2"]
+
+
 def test_calls_run_here_when_no_thread_can_be_started(two_threads, monkeypatch):
     pool = parallel._executor()
 
