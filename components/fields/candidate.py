@@ -352,9 +352,9 @@ def _repaired(V, T, ranked, target: float, index: TriangleIndex, cut: list):
     The best-ranked candidate is repaired alone, the next ones two at a time (two cores; the results and their
     order are those of one at a time). Under a caller's deadline (:mod:`components.core.deadline`, e.g. the
     server's time limit per solve) the next ones are repaired only while the time left holds twice the last
-    repairs (them, and as long for the planarization); else the ranking ends there and ``cut`` gets the warning. (A panel size near the mesh's edge
-    length made every repair slow and none healthy: 6 × 13 s on a 43k-triangle patch at 1.24 mesh edges per
-    panel, 88 s for the candidate, past the server's 90 s.)"""
+    repairs (them, and as long for the planarization); else the ranking ends there and ``cut`` gets the warning.
+    (A panel size near the mesh's edge length made every repair slow and none healthy: 6 × 13 s on a 43k-triangle
+    patch at 1.24 mesh edges per panel, 88 s for the candidate, past the server's 90 s.)"""
     fewest = None  # unhealthy panels of the best unhealthy candidate so far
     last, k = 0.0, 0
     items = iter(ranked)

@@ -67,19 +67,20 @@ log = logging.getLogger(__name__)
 __all__ = [
     "Field",
     "FieldCurvature",
+    "closest_conjugate_pairs",
     "comb_field",
     "conjugacy_error",
     "conjugate_frame_field",
     "conjugate_field",
     "field_curvature",
     "field_matching",
-    "closest_conjugate_pairs",
     "field_singularities",
     "smooth_field",
     "smooth_frame_field",
     "transferred_field",
 ]
 
+_TANGENT_WEIGHT = 10.0  # the conjugate local step's pull of a boundary face's pair towards the boundary tangent
 _AREA_SCALE = 1000.0  # per-face weights: alignment · 1000 · (face area / total area)
 
 
@@ -1103,7 +1104,7 @@ def _conjugate_problem(V, U0, W0, fr: FaceFrames, dg: DualGraph, cv: FieldCurvat
     """Boundary tangents, constraints, start pair and smoothness operators of :func:`conjugate_frame_field`."""
     m = len(fr.area)
     tau = _boundary_tangents(V, dg, fr, m) if align_boundary else None
-    tau_w = np.full(m, 10.0)
+    tau_w = np.full(m, _TANGENT_WEIGHT)
     fixed = None
     if constraints is not None:
         cf, cdir = _constraint_directions(constraints, m, fr)
@@ -1170,12 +1171,17 @@ def _release(pb: _ConjugateProblem, u, v, step, wc: np.ndarray, active: np.ndarr
     return released, active, u, v, step
 
 
+def _far(pu, pv, u, v, release_angle: float, release_separation: float) -> np.ndarray:
+    """Faces whose closest conjugate pair ``pu, pv`` is beyond the release angle from the pair ``u, v`` or narrower
+    than the release separation."""
+    return (_pair_deviation(pu, pv, u, v) > release_angle) | (_line_angle(pu, pv) < release_separation)
+
+
 def _far_faces(pb: _ConjugateProblem, pu, pv, u, v, active: np.ndarray, release_angle: float,
                release_separation: float) -> np.ndarray:
     """Active faces (not user-fixed) whose closest conjugate pair is beyond the release angle or narrower than the
     release separation."""
-    narrow = _line_angle(pu, pv) < release_separation
-    out = active & ((_pair_deviation(pu, pv, u, v) > release_angle) | narrow)
+    out = active & _far(pu, pv, u, v, release_angle, release_separation)
     if pb.fixed is not None:
         out[pb.fixed[0]] = False
     return out
@@ -1250,12 +1256,11 @@ def closest_conjugate_pairs(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np.n
     fr, dg = _frames(V, T)
     cv = _curvature_arg(curvature, V, T, 2, m)
     ls = _local_step(_principal_complex(cv, fr), cv.k1, cv.k2, min_angle,
-                     _boundary_tangents(V, dg, fr, m) if align_boundary else None, np.full(m, 10.0))
+                     _boundary_tangents(V, dg, fr, m) if align_boundary else None, np.full(m, _TANGENT_WEIGHT))
     u, v = to_complex(U, fr), to_complex(W, fr)
     u, v = u / np.abs(u), v / np.abs(v)
     pu, pv, _ = _closest_conjugate(u, v, ls)
-    keep = (_conjugacy_weights(cv) > 0) & (_line_angle(pu, pv) >= release_separation)
-    keep &= _pair_deviation(pu, pv, u, v) <= release_angle
+    keep = (_conjugacy_weights(cv) > 0) & ~_far(pu, pv, u, v, release_angle, release_separation)
     fld = _finish(V, T, np.where(keep, pu, u), np.where(keep, pv, v), fr, dg, cv, None, diagnostics=False)
     return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)
 

@@ -234,6 +234,7 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
     """
     if field == "principal":
         return _smoothed_principal_field(V, T, alignment, constraints)
+    extra = {} if release_separation is None else {"release_separation": release_separation}
     edge = _coarse_edge(V, T, resolution) if constraints is None else None
     if edge is not None:
         # the coarse copy and the mesh's own curvature (for its conjugate pairs) at the same time, on two cores
@@ -243,14 +244,12 @@ def direction_field(V: np.ndarray, T: np.ndarray, field: str = "conjugate", alig
         Uc, Wc = direction_field(Vc, Tc, field=field, alignment=alignment, release_separation=release_separation)
         U, W = transferred_field(V, T, Vc, Tc, Uc, Wc)
         if field == "conjugate":  # conjugate face by face on the mesh itself, as the field's own last step
-            extra = {} if release_separation is None else {"release_separation": release_separation}
             U, W = closest_conjugate_pairs(V, T, U, W, curvature=cv, **extra)
         return U, W
     cv = field_curvature(V, T)  # once for both fields
     # the directions only: the fields' singularities and errors are not needed here
     fld = smooth_frame_field(V, T, alignment=alignment, constraints=constraints, curvature=cv, diagnostics=False)
     if field == "conjugate":
-        extra = {} if release_separation is None else {"release_separation": release_separation}
         fld = conjugate_frame_field(V, T, fld.U, fld.W, constraints=constraints, curvature=cv, diagnostics=False,
                                     **extra)
     return np.asarray(fld.U, dtype=np.float64), np.asarray(fld.W, dtype=np.float64)

@@ -20,6 +20,7 @@ M. Botsch, L. Kobbelt, M. Pauly, P. Alliez, B. Lévy, *Polygon Mesh Processing*,
 from __future__ import annotations
 
 import logging
+from itertools import count
 from typing import NamedTuple
 
 import numpy as np
@@ -848,14 +849,8 @@ def decimate(V: np.ndarray, T: np.ndarray, target_length: float, feature_angle: 
     S, center = _start(V, T, feature_angle)
     L = float(target_length)
     hi, lo = 4.0 / 3.0 * L, 4.0 / 5.0 * L
-    first = 0
-    for i in range(batches):
-        k = _collapse_short(S, lo, hi, salt=i + 1)
-        if k:
-            S.changed()
-        first = first or k
-        if k == 0 or k < 0.02 * first:
-            break
+    salts = count(1)  # other priorities every batch
+    _batches(S, lambda: _collapse_short(S, lo, hi, salt=next(salts)), batches, 0.02)
     _compact(S)
     _batches(S, lambda: _flip_valence(S), _MAX_ROUNDS // 5, _TAIL)
     return S.V + center, S.T
