@@ -78,6 +78,8 @@ _SHARP_TURN = np.radians(30.0)  # a boundary vertex where the candidate's outlin
 _MARGIN = 5.0  # degrees: the smoothing keeps improving a vertex's worst corner up to the bound plus this
 _QUANTUM = 0.01  # degrees: corner margins are compared at this resolution (see _quantized)
 _SLACK = 1.25  # a smoothing move may not take an edge (a face) under this × its bound, unless it already was
+_QUAD_CHORD = 0.75  # a sliver quad's short diagonal collapsed up to this share of its longest edge (_chord_limit)
+_TRIANGLE_CHORD = 0.6  # ... a triangle's shortest edge (any length when the triangle is under the area bound)
 _POCKET = 3  # boundary vertices at most between two touching boundary corners whose pocket is closed by a face
 # defects the repair acts on (planarity is the planarization's, coverage needs the surface)
 _SHAPE = ("short_edge", "degenerate", "corner", "nonconvex", "small", "intersecting", "folded", "flipped",
@@ -612,12 +614,11 @@ def _collapsed_slivers(state, hl: PanelHealth, index, min_angle: float):
     """Collapse the chord of every quad or triangle still unhealthy with a corner beyond the bounds or too small
     an area (a sliver no smoothing opened: moving a corner to open it closes a neighbour as thin): the shorter
     diagonal of a quad whose two obtuse corners face each other (the quad vanishes, its neighbours keep their
-    corners), the shortest edge of a triangle (a quad across it becomes a triangle). The chord is at most half
-    the face's longest edge; its two ends merge where the mesh stays manifold (their common neighbours are the
-    quad's other two corners, or the third corners of the triangles on the edge; not both on the boundary unless
-    the chord is a boundary edge), at an outline corner or boundary vertex among them, else at the surface point
-    closest to their midpoint. One sliver per neighbourhood per call. Returns the new state and the
-    number of vertices merged away."""
+    corners), the shortest edge of a triangle (a quad across it becomes a triangle). Its two ends merge where the
+    mesh stays manifold (their common neighbours are the quad's other two corners, or the third corners of the
+    triangles on the edge; not both on the boundary unless the chord is a boundary edge), at an outline corner or
+    boundary vertex among them, else at the surface point closest to their midpoint. The chord is at most :func:`_chord_limit` of the face's longest edge. One sliver per
+    neighbourhood per call. Returns the new state and the number of vertices merged away."""
     Vc, Fc, tri, bary, grid = state
     sizes = face_sizes(Fc)
     sliver = ((hl.min_corner < min_angle) | (hl.max_corner > 180.0 - min_angle)
@@ -669,7 +670,7 @@ def _collapsed_slivers(state, hl: PanelHealth, index, min_angle: float):
                 continue
             if nbrs(a) & nbrs(b) != {c[(i + 1) % 4], c[(i + 3) % 4]}:
                 continue
-        if chord > 0.5 * side.max():
+        if chord > _chord_limit(len(c), bool(hl.face_defects[f] & DEFECT_BITS["small"])) * side.max():
             continue
         keep, gone = (a, b) if (fixed[a], onb[a]) >= (fixed[b], onb[b]) else (b, a)
         lab[gone] = keep
@@ -684,6 +685,23 @@ def _collapsed_slivers(state, hl: PanelHealth, index, min_angle: float):
         q = index.query(np.asarray(goals))
         Vc[who], tri[who], bary[who] = q.points, q.faces, q.barycentric
     return relabel(Vc, Fc, tri, bary, grid, lab), int(np.count_nonzero(lab != np.arange(nv)))
+
+
+def _chord_limit(corners: int, small: bool) -> float:
+    """The longest chord :func:`_collapsed_slivers` collapses, as a share of the face's longest edge: half for a
+    quad (its short diagonal) and a triangle (its shortest edge) in general; more where the face is a sliver by its
+    corners or its area whatever its sides. A quad whose two obtuse corners face each other beyond the bound (a flat
+    parallelogram along the outline: corners 20° / 160°, sides 1 : 0.3 give a short diagonal 0.72 of the long side)
+    up to :data:`_QUAD_CHORD`; a cap triangle (two corners under 20° beside an obtuse one: its two short sides are
+    sin 20° / sin 140° = 0.53 of the long one) up to :data:`_TRIANGLE_CHORD`; a triangle under the area bound
+    whatever its shape (each of its edges is short).
+
+    >>> _chord_limit(4, False), _chord_limit(3, False), _chord_limit(3, True)
+    (0.75, 0.6, 1.0)
+    """
+    if corners == 3:
+        return 1.0 if small else _TRIANGLE_CHORD
+    return _QUAD_CHORD
 
 
 def _drop_bad_boundary_triangles(state, hl: PanelHealth):

@@ -164,6 +164,54 @@ def test_a_sliver_quad_loses_its_short_diagonal():
     assert r.health.healthy, r.health.violations
 
 
+def test_a_long_sliver_quad_loses_its_short_diagonal():
+    """A grid vertex doubled into a flat parallelogram (corners of 6.8° and 173°, short diagonal 0.58 of its long
+    side: more than half, which the collapse used to refuse; on the 200k-triangle patch such slivers along the
+    outline sent the candidate search through the whole ranking): the two obtuse corners merge at their midpoint,
+    back to the 4 × 4 grid."""
+    from components.core.mesh import pad_faces, quad_grid, triangulate
+
+    V, Q = quad_grid(4, 4, 4.0, 4.0)  # vertex 12 at (2, 2), 7 at (2, 1), 17 at (2, 3)
+    T = triangulate(Q)[0]
+    index = TriangleIndex(V, T)
+    Vc = np.vstack([V, [[2.05, 2.4, 0.0]]])
+    Vc[12] = [1.95, 1.6, 0.0]
+    F = [[25 if v == 12 and V[r].mean(axis=0)[0] > 2 else v for v in r] for r in Q.tolist()] + [[7, 25, 17, 12]]
+    q = index.query(Vc)
+    state = (q.points, pad_faces(F), q.faces, q.barycentric, np.ones(len(Vc), bool))
+    hl = repair.candidate_health(*state[:2])
+    assert hl.counts["corner"] >= 1 and hl.min_corner[-1] == pytest.approx(6.8, abs=0.1)
+    P = Vc[[7, 25, 17, 12]]
+    assert np.linalg.norm(P[1] - P[3]) / np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).max() > 0.55
+    (X, F2, *_), merged = repair._collapsed_slivers(state, hl, index, 20.0)
+    assert merged == 1 and len(F2) == 16 and len(X) == 25
+    assert repair.candidate_health(X, F2).worst_corner == pytest.approx(90.0)
+    assert np.allclose(np.sort(X, axis=0), np.sort(V, axis=0), atol=1e-12)
+
+
+def test_a_small_boundary_triangle_loses_its_shortest_edge():
+    """A boundary vertex split in two 0.4 apart with a small triangle between them (corners about 60°, area 0.07 ×
+    the median: its shortest edge is nearly its longest, which the collapse used to refuse): the boundary edge
+    collapses, the triangle vanishes and the candidate is healthy."""
+    from components.core.mesh import pad_faces, quad_grid, triangulate
+
+    V, Q = quad_grid(4, 4, 4.0, 4.0)  # vertex 2 at (2, 0) on the outline, 7 at (2, 1)
+    T = triangulate(Q)[0]
+    index = TriangleIndex(V, T)
+    Vc = np.vstack([V, [[2.2, 0.0, 0.0]]])
+    Vc[2] = [1.8, 0.0, 0.0]
+    Vc[7] = [2.0, 0.35, 0.0]
+    F = [[25 if v == 2 and V[r].mean(axis=0)[0] > 2 else v for v in r] for r in Q.tolist()] + [[2, 25, 7]]
+    q = index.query(Vc)
+    state = (q.points, pad_faces(F), q.faces, q.barycentric, np.ones(len(Vc), bool))
+    hl = repair.candidate_health(*state[:2])
+    assert hl.counts["small"] == 1 and hl.counts["corner"] == 0 and not hl.counts["short_edge"]
+    (X, F2, *_), merged = repair._collapsed_slivers(state, hl, index, 20.0)
+    assert merged == 1 and len(F2) == 16 and len(X) == 25
+    assert (F2[:, 3] != F2[:, 2]).all()  # quads only
+    assert repair.candidate_health(X, F2).healthy
+
+
 def _pinched_grid(weld: bool):
     """A 3 × 2 grid of unit quads without its top middle quad (a notch in the outline), the notch's two top corners
     moved together to (1.5, 2): two quads touching at a corner (``weld``: one vertex joining both, a welded pinch),
