@@ -27,10 +27,10 @@ surface, not folded or crossing) and repairs, pass by pass, until it is healthy 
    worst corner, where that opens the worst corner by 5° or more;
 5. *drop* a triangle that is still unhealthy and has all its corners on the boundary (a sliver along the
    outline), where the mesh stays manifold without it;
-6. when a pass changes nothing, *collapse* the chord of every quad or triangle still beyond the corner bounds or
-   too small: the shorter diagonal of a quad whose two obtuse corners face each other, the shortest edge of a
-   triangle (a sliver between two as thin: opening it by a smoothing move closes a neighbour), and smooth around
-   the merged vertices in up to two more passes (on the 200k-triangle benchmark patch the best-ranked candidate
+6. when a pass changes nothing, or the last one leaves defects, *collapse* the chord of every quad or triangle
+   still beyond the corner bounds or too small: the shorter diagonal of a quad whose two obtuse corners face each
+   other, the shortest edge of a triangle (a sliver between two as thin: opening it by a smoothing move closes a
+   neighbour), and smooth around the merged vertices in up to two more passes (on the 200k-triangle benchmark patch the best-ranked candidate
    kept a 19.5° sliver beside a 20.3° one without this step).
 
 Every bound is relative to the candidate's median edge and median face area, every product is taken about a
@@ -216,10 +216,11 @@ def repaired_candidate(V, T, Vc, Fc, tri, bary, grid, target_length: float, *, i
         actions["dropped"] += k
         if k:
             hl = check(state)
-        if ((len(state[0]), len(state[1])) == before[:2] and np.array_equal(hl.face_defects, before[2])
-                and hl.worst_corner == before[3]):
-            # stuck: the slivers no step above opened (a thin face between two as thin) lose a chord, the next
-            # pass smooths around them
+        stuck = ((len(state[0]), len(state[1])) == before[:2] and np.array_equal(hl.face_defects, before[2])
+                 and hl.worst_corner == before[3])
+        if stuck or (done == budget and (hl.face_defects & _SHAPE_BITS).any()):
+            # stuck, or the last pass still left defects: the slivers no step above opened (a thin face between two
+            # as thin, or one the last pass made) lose a chord, the next pass smooths around them
             state, k = _collapsed_slivers(state, hl, index, min_angle)
             if not k:
                 break

@@ -189,6 +189,29 @@ def test_a_long_sliver_quad_loses_its_short_diagonal():
     assert np.allclose(np.sort(X, axis=0), np.sort(V, axis=0), atol=1e-12)
 
 
+def test_the_last_pass_collapses_the_slivers_it_leaves():
+    """A flat sliver quad (6.8° corners) and, elsewhere, a pinched quad that smoothing opens: with one pass the
+    pass changes something (the smoothing), so it is not stuck, and the sliver used to stay (the candidate search
+    then went down the ranking: the 200k patch's best-ranked candidates kept one to seven such panels on 4 of 23
+    seeds). The last pass collapses the slivers it leaves and smooths around them: healthy."""
+    from components.core.mesh import pad_faces, quad_grid, triangulate
+
+    V, Q = quad_grid(6, 6, 6.0, 6.0)  # vertex j * 7 + i at (i, j): 24 at (3, 3), 17 at (3, 2), 31 at (3, 4)
+    T = triangulate(Q)[0]
+    index = TriangleIndex(V, T)
+    new = len(V)
+    Vc = np.vstack([V, [[3.05, 3.4, 0.0]]])
+    Vc[24] = [2.95, 2.6, 0.0]
+    Vc[8] = [1.8, 1.8, 0.0]  # vertex 8, at (1, 1), pushed past the middle of its quad
+    F = [[new if v == 24 and V[r].mean(axis=0)[0] > 3 else v for v in r] for r in Q.tolist()] + [[17, new, 31, 24]]
+    q = index.query(Vc)
+    state = (q.points, pad_faces(F), q.faces, q.barycentric, np.ones(len(Vc), bool))
+    assert not repair.candidate_health(*state[:2]).healthy
+    r = repair.repaired_candidate(V, T, *state, 1.0, index=index, passes=1)
+    assert r.health.healthy, r.health.violations
+    assert r.actions["smoothed"] >= 1 and r.actions["collapsed"] == 1 and len(r.F) == 36
+
+
 def test_a_small_boundary_triangle_loses_its_shortest_edge():
     """A boundary vertex split in two 0.4 apart with a small triangle between them (corners about 60°, area 0.07 ×
     the median: its shortest edge is nearly its longest, which the collapse used to refuse): the boundary edge
