@@ -85,6 +85,13 @@ Then the strategy went down its ranking of healthy candidates when the best-rank
 its split), ``--real 300`` 39 of 42 as before (the tube 0.161 → 0.110, still short); the patch sweep and the
 benchmark rows are unchanged (their first candidate converges).
 
+Session 18 (session 17's machine), after the repair's sliver collapse took longer chords and ran at the last pass
+(components/fields/repair.py): the default sweep 24 of 24 converged and healthy; ``--real 60 300`` 39 of 42 at 300
+panels (the tube, camelhead, Costa as before; three meshes get another candidate, all healthy: see
+benchmarks/fields.py) and 30 of 42 at 60 (the same candidates as before; compas_hypar stops at the 10 s budget on
+this machine, as in session 17). On the 200k patch, seeds 0-22: 22 of 23 best-ranked candidates at the nominal
+panel count.
+
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
 - Guard rows *added* to a factored system solved with its factor bordered by them (a Schur complement of up to 64

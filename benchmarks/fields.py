@@ -133,6 +133,38 @@ against 0.00232 in the connection Laplacian's energy, no closer to the mesh's ow
 run through the pipeline); 6 or 10 selection rounds in the decimation (not faster: its batches are limited by the
 checks).
 
+Session 18 (same machine as session 17). Why the planarization of these candidates takes tens of steps, measured on
+the saved 20k and 200k candidates: the restore phase's first Gauss-Newton step (the minimum-norm planarity
+correction in the solver's metric) moves the median vertex 0.25 candidate edges at 20k and 0.52 at 200k, for a mean
+planarity of 5.2e-3 / 1.3e-3; the same residual magnitudes with random signs need 0.065 / 0.046. The candidate's
+non-planarity is systematic (smooth over many panels: the discretization of a conjugate net at finite panel size),
+and the planarity rows of a quad net turn a smooth residual into a global slide of the net (their small singular
+values belong to corrections smooth along one net direction), which the panel-health guard takes a quarter of at a
+time (corners 15-20° past their bound at the full step, hundreds of guard rows). The metric does not change it: the
+polyline fairness in the step metric (a vertex-space KKT system, fairness weight 1) 0.25 → 0.27 edges, an isotropic
+metric 0.19, free boundary vertices 0.24. A coarse correction first (moves interpolated from the surface decimated
+to 2.5 or 5 candidate edges, Gauss-Newton in that space) removes only 25-45 % of the linearized residual and its
+full step raises the max planarity (0.060 → 0.094). A parametrization fit that weights the iso-lines' direction 10x
+/ 100x over the panel size lowered the 20k candidates' mean planarity only to 4.3-4.9e-3 (from 5.1-5.5e-3), with
+less even panels. Not adopted; the planarization of a 12k-panel candidate stays tens of steps.
+Also measured: the seamless parametrization inverts 51-67 triangles on the 20k patches and 18-36 on the 200k ones,
+almost all on the outline (the aligned boundary's constraints against the field; re-solving with their rings
+stiffened 10x did not lower them); the repair and the ranking absorb them.
+Changed: the repair (components/fields/repair.py). At 12-15k panels the best-ranked candidate kept one to seven
+unhealthy panels after repair on a third of the seeds, all on the outline: flat quads (corners 20° / 160°) whose
+short diagonal is 0.57-0.66 of their long side and cap triangles (0.52) where the sliver collapse took chords up to
+half the longest side, small triangles (0.07 × the median area, near-equilateral), and slivers the last pass made or
+left while changing something else (the collapse ran only when a pass changed nothing). Now a sliver quad's short
+diagonal is collapsed up to 0.75 of its longest side, a triangle's shortest edge up to 0.6 (any length under the
+area bound), and the last pass collapses the slivers it leaves. Seeds 0-22 of the 200k patch: a candidate at the
+nominal panel count (12.2-12.7k panels) on 22 of 23 seeds (seeds 3-22: 19 of 20, against 14 of 20 before); over
+seeds 3-22 extraction 9.5 → 6.8 s and the pipeline 42.4 → 37.3 s on average (all 23: 37.4, median 34.9, 31.1-59.6;
+seeds 4 and 13 stop at the 30 s budget, healthy, 2.0e-4 / 3.8e-4; seed 4 converged once in 30.1 s). The 20k patches'
+candidates (seeds 0-7) and 81 of the shared meshes' 84 (60 and 300 panels) are the same bit for bit; inspired_mesh
+Conjugate / Smooth at 300 panels now keep their best-ranked candidate (no unrepaired panel; 1.3 / 1.1 s instead of
+3.5 / 1.8 s), DOS wein99 at 300 gets 381 panels instead of 399 (healthy, converged; mean closeness 0.094 against
+0.065).
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
