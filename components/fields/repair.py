@@ -25,8 +25,8 @@ surface, not folded or crossing) and repairs, pass by pass, until it is healthy 
    its bound; vertices sharing a face do not move in the same sweep;
 4. *rotate* the edge between an unhealthy quad and a neighbouring quad, or *split* an unhealthy polygon at its
    worst corner, where that opens the worst corner by 5° or more;
-5. *drop* a triangle that is still unhealthy and has all its corners on the boundary (a sliver along the
-   outline), where the mesh stays manifold without it;
+5. *drop* a triangle or quad that is still unhealthy and has all its corners on the boundary (a sliver along the
+   outline, a quad pinched or folded in a bend of it), where the mesh stays manifold without it;
 6. when a pass changes nothing, or the last one leaves defects, *collapse* the chord of every quad or triangle
    still beyond the corner bounds or too small: the shorter diagonal of a quad whose two obtuse corners face each
    other, the shortest edge of a triangle (a sliver between two as thin: opening it by a smoothing move closes a
@@ -212,7 +212,7 @@ def repaired_candidate(V, T, Vc, Fc, tri, bary, grid, target_length: float, *, i
         actions["split"] += k
         if k:
             hl = check(state)
-        state, k = _drop_bad_boundary_triangles(state, hl)
+        state, k = _drop_bad_boundary_faces(state, hl)
         actions["dropped"] += k
         if k:
             hl = check(state)
@@ -705,17 +705,18 @@ def _chord_limit(corners: int, small: bool) -> float:
     return _QUAD_CHORD
 
 
-def _drop_bad_boundary_triangles(state, hl: PanelHealth):
-    """Remove the unhealthy triangles whose corners all lie on the boundary where the mesh stays manifold (no
-    vertex where two boundary loops would touch): the candidate's boundary stays on the surface's boundary.
-    Returns the new state and the number removed."""
+def _drop_bad_boundary_faces(state, hl: PanelHealth):
+    """Remove the unhealthy triangles and quads whose corners all lie on the boundary where the mesh stays manifold
+    (no vertex where two boundary loops would touch): the candidate's boundary stays on the surface's boundary. (A
+    quad wedged in a bend of the outline, pinched non-convex or folded onto its neighbour, was left by the other
+    steps on a sixth of the 200k patch's seeds.) Returns the new state and the number removed."""
     Vc, Fc, tri, bary, grid = state
     sizes = face_sizes(Fc)
     topo = edge_topology(Fc)
     onb = np.zeros(len(Vc), dtype=bool)
     onb[topo.E[topo.count == 1].ravel()] = True
     allb = onb[Fc].all(axis=1)  # padding repeats a corner: the padded row has the same corners
-    cand = np.nonzero((sizes == 3) & allb & ((hl.face_defects & _SHAPE_BITS) != 0))[0]
+    cand = np.nonzero((sizes <= 4) & allb & ((hl.face_defects & _SHAPE_BITS) != 0))[0]
     if not len(cand) or len(Fc) - len(cand) < 1:
         return state, 0
     keep = drop_keeping_manifold(Fc, topo, cand, len(Vc))

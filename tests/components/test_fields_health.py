@@ -212,6 +212,26 @@ def test_the_last_pass_collapses_the_slivers_it_leaves():
     assert r.actions["smoothed"] >= 1 and r.actions["collapsed"] == 1 and len(r.F) == 36
 
 
+def test_a_folded_quad_on_the_outline_is_dropped():
+    """A quad with all four corners on the outline folded back over its neighbour (a flap on the top edge of a
+    3 × 3 grid: what the parametrization's folds along the outline left on a sixth of the 200k patch's seeds) is
+    dropped like an unhealthy boundary triangle: the grid is left, healthy."""
+    from components.core.mesh import pad_faces, quad_grid, triangulate
+
+    V, Q = quad_grid(3, 3, 3.0, 3.0)  # vertex j * 4 + i at (i, j): 13 at (1, 3), 14 at (2, 3) on the top edge
+    T = triangulate(Q)[0]
+    index = TriangleIndex(V, T)
+    Vc = np.vstack([V, [[1.0, 2.5, 0.0], [2.0, 2.5, 0.0]]])
+    F = Q.tolist() + [[14, 13, 16, 17]]  # the flap, folded down over the quad (9, 10, 14, 13)
+    q = index.query(Vc)
+    state = (q.points, pad_faces(F), q.faces, q.barycentric, np.ones(len(Vc), bool))
+    hl = repair.candidate_health(*state[:2])
+    assert not hl.healthy and hl.face_defects[9]
+    (X, F2, *_), dropped = repair._drop_bad_boundary_faces(state, hl)
+    assert dropped == 1 and sorted(map(tuple, F2.tolist())) == sorted(map(tuple, Q.tolist()))
+    assert repair.candidate_health(X, F2).healthy
+
+
 def test_a_small_boundary_triangle_loses_its_shortest_edge():
     """A boundary vertex split in two 0.4 apart with a small triangle between them (corners about 60°, area 0.07 ×
     the median: its shortest edge is nearly its longest, which the collapse used to refuse): the boundary edge
