@@ -153,17 +153,19 @@ stiffened 10x did not lower them); the repair and the ranking absorb them.
 Changed: the repair (components/fields/repair.py). At 12-15k panels the best-ranked candidate kept one to seven
 unhealthy panels after repair on a third of the seeds, all on the outline: flat quads (corners 20° / 160°) whose
 short diagonal is 0.57-0.66 of their long side and cap triangles (0.52) where the sliver collapse took chords up to
-half the longest side, small triangles (0.07 × the median area, near-equilateral), and slivers the last pass made or
-left while changing something else (the collapse ran only when a pass changed nothing). Now a sliver quad's short
-diagonal is collapsed up to 0.75 of its longest side, a triangle's shortest edge up to 0.6 (any length under the
-area bound), and the last pass collapses the slivers it leaves. Seeds 0-22 of the 200k patch: a candidate at the
-nominal panel count (12.2-12.7k panels) on 22 of 23 seeds (seeds 3-22: 19 of 20, against 14 of 20 before); over
-seeds 3-22 extraction 9.5 → 6.8 s and the pipeline 42.4 → 37.3 s on average (all 23: 37.4, median 34.9, 31.1-59.6;
-seeds 4 and 13 stop at the 30 s budget, healthy, 2.0e-4 / 3.8e-4; seed 4 converged once in 30.1 s). The 20k patches'
-candidates (seeds 0-7) and 81 of the shared meshes' 84 (60 and 300 panels) are the same bit for bit; inspired_mesh
-Conjugate / Smooth at 300 panels now keep their best-ranked candidate (no unrepaired panel; 1.3 / 1.1 s instead of
-3.5 / 1.8 s), DOS wein99 at 300 gets 381 panels instead of 399 (healthy, converged; mean closeness 0.094 against
-0.065).
+half the longest side, small near-equilateral triangles (0.07 × the median area), slivers the last pass made or left
+while changing something else (the collapse ran only when a pass changed nothing), and quads with all four corners
+on the outline, pinched or folded in a bend of it. Now a sliver quad's short diagonal is collapsed up to 0.75 of its
+longest side, a triangle's shortest edge up to 0.6 (any length under the area bound), the last pass collapses the
+slivers it leaves, and an unhealthy quad with all its corners on the outline is dropped like such a triangle. Seeds
+0-22 of the 200k patch: a candidate at the nominal panel count (12.2-12.7k panels) on 22 of 23 seeds (seeds 3-22: 19
+of 20, against 14 of 20 before) and 22 of 23 converged and healthy (seed 13 stops at the 30 s budget, healthy,
+3.8e-4); over seeds 3-22 extraction 9.5 → 6.1 s and the pipeline 42.4 → 36.6 s on average (all 23: 36.3 s, median
+36.2, 29.9-58.9; runs of the same candidate vary by ±3 s on this machine; coverage at least 0.996 as before). The
+20k patches' candidates (seeds 0-7) and 81 of the shared meshes' 84 (60 and 300 panels) are the same bit for bit;
+inspired_mesh Conjugate / Smooth at 300 panels now keep their best-ranked candidate (no unrepaired panel; 1.3 / 1.1
+s instead of 3.5 / 1.8 s), DOS wein99 at 300 gets 381 panels instead of 399 (healthy, converged; mean closeness
+0.094 against 0.065). The benchmark row (seed 0) keeps its candidate: 33-35 s.
 
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
