@@ -86,8 +86,10 @@ its split), ``--real 300`` 39 of 42 as before (the tube 0.161 → 0.110, still s
 benchmark rows are unchanged (their first candidate converges).
 
 Session 18 (session 17's machine), after the repair's sliver collapse took longer chords and ran at the last pass
-(components/fields/repair.py; the sweeps were run before it also dropped unhealthy quads with all corners on the
-outline, which changed none of their candidates): the default sweep 24 of 24 converged and healthy; ``--real 60 300`` 39 of 42 at 300
+(components/fields/repair.py): the default sweep 24 of 24 converged and healthy, and again after the repair also
+dropped unhealthy quads with all corners on the outline (8k seed 3 then gets another candidate, 600 panels instead
+of 553 at all three placements, converged; the ``--real`` run below was before that change, which leaves the shared
+meshes' candidates as they were); ``--real 60 300`` 39 of 42 at 300
 panels (the tube, camelhead, Costa as before; three meshes get another candidate, all healthy: see
 benchmarks/fields.py) and 30 of 42 at 60 (the same candidates as before; compas_hypar stops at the 10 s budget on
 this machine, as in session 17). On the 200k patch, seeds 0-22: 22 of 23 candidates at the nominal panel count
