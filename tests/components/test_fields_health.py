@@ -227,6 +227,27 @@ def test_a_folded_quad_on_the_outline_is_dropped():
     assert repair.candidate_health(X, F2).healthy
 
 
+def test_the_last_pass_drops_a_pentagon_in_a_bend_of_the_outline():
+    """A non-convex pentagon with all its corners on the outline (a notch on the top edge of a 3 × 3 grid, its
+    reflex corner at (1.5, 3.1)): an 80k-triangle canopy's best-ranked candidates kept such pentagons after repair.
+    The last pass drops it (the passes before keep pentagons: one unhealthy only in an early pass may heal)."""
+    from components.core.mesh import pad_faces, quad_grid, triangulate
+
+    V, Q = quad_grid(3, 3, 3.0, 3.0)  # vertex j * 4 + i at (i, j): 13 at (1, 3), 14 at (2, 3) on the top edge
+    Vs, Qs = quad_grid(3, 4, 3.0, 4.0)  # the design surface reaches past the top edge
+    index = TriangleIndex(Vs, triangulate(Qs)[0])
+    Vc = np.vstack([V, [[2.0, 3.5, 0.0], [1.5, 3.1, 0.0], [1.0, 3.5, 0.0]]])
+    q = index.query(Vc)
+    state = (q.points, pad_faces(Q.tolist() + [[13, 14, 16, 17, 18]]), q.faces, q.barycentric,
+             np.ones(len(Vc), bool))
+    hl = repair.candidate_health(*state[:2])
+    assert not hl.healthy and hl.counts["nonconvex"] == 1 and hl.face_defects[9]
+    assert repair._drop_bad_boundary_faces(state, hl)[1] == 0
+    (X, F2, *_), dropped = repair._drop_bad_boundary_faces(state, hl, pentagons=True)
+    assert dropped == 1 and sorted(map(tuple, F2[:, :4].tolist())) == sorted(map(tuple, Q.tolist()))
+    assert repair.candidate_health(X, F2).healthy
+
+
 def test_a_small_boundary_triangle_loses_its_shortest_edge():
     """A boundary vertex split in two 0.4 apart with a small triangle between them (corners about 60°, area 0.07 ×
     the median: its shortest edge is nearly its longest, which the collapse used to refuse): the boundary edge
