@@ -30,8 +30,9 @@ surface, not folded or crossing) and repairs, pass by pass, until it is healthy 
 6. when a pass changes nothing, or the last one leaves defects, *collapse* the chord of every quad or triangle
    still beyond the corner bounds or too small: the shorter diagonal of a quad whose two obtuse corners face each
    other, the shortest edge of a triangle (a sliver between two as thin: opening it by a smoothing move closes a
-   neighbour), and smooth around the merged vertices in up to two more passes (on the 200k-triangle benchmark patch the best-ranked candidate
-   kept a 19.5° sliver beside a 20.3° one without this step).
+   neighbour), and smooth around the merged vertices in up to two more passes (on the 200k-triangle benchmark
+   patch the best-ranked candidate kept a 19.5° sliver beside a 20.3° one without this step); the last pass also
+   drops the unhealthy pentagons with four or five corners on the boundary.
 
 Every bound is relative to the candidate's median edge and median face area, every product is taken about a
 nearby vertex, and the smoothing compares corner margins rounded to 0.01°: the repair does the same for a model
@@ -626,8 +627,9 @@ def _collapsed_slivers(state, hl: PanelHealth, index, min_angle: float):
     corners), the shortest edge of a triangle (a quad across it becomes a triangle). Its two ends merge where the
     mesh stays manifold (their common neighbours are the quad's other two corners, or the third corners of the
     triangles on the edge; not both on the boundary unless the chord is a boundary edge), at an outline corner or
-    boundary vertex among them, else at the surface point closest to their midpoint. The chord is at most :func:`_chord_limit` of the face's longest edge. One sliver per
-    neighbourhood per call. Returns the new state and the number of vertices merged away."""
+    boundary vertex among them, else at the surface point closest to their midpoint. The chord is at most
+    :func:`_chord_limit` of the face's longest edge. One sliver per neighbourhood per call. Returns the new state
+    and the number of vertices merged away."""
     Vc, Fc, tri, bary, grid = state
     sizes = face_sizes(Fc)
     sliver = ((hl.min_corner < min_angle) | (hl.max_corner > 180.0 - min_angle)
@@ -697,13 +699,12 @@ def _collapsed_slivers(state, hl: PanelHealth, index, min_angle: float):
 
 
 def _chord_limit(corners: int, small: bool) -> float:
-    """The longest chord :func:`_collapsed_slivers` collapses, as a share of the face's longest edge: half for a
-    quad (its short diagonal) and a triangle (its shortest edge) in general; more where the face is a sliver by its
-    corners or its area whatever its sides. A quad whose two obtuse corners face each other beyond the bound (a flat
-    parallelogram along the outline: corners 20° / 160°, sides 1 : 0.3 give a short diagonal 0.72 of the long side)
-    up to :data:`_QUAD_CHORD`; a cap triangle (two corners under 20° beside an obtuse one: its two short sides are
-    sin 20° / sin 140° = 0.53 of the long one) up to :data:`_TRIANGLE_CHORD`; a triangle under the area bound
-    whatever its shape (each of its edges is short).
+    """The longest chord :func:`_collapsed_slivers` collapses (its faces are slivers by their corners or their area),
+    as a share of the face's longest edge. It was half for both; a sliver is one whatever its sides: a quad's short
+    diagonal up to :data:`_QUAD_CHORD` (a flat parallelogram along the outline, corners 20° / 160° and sides
+    1 : 0.3, has a short diagonal 0.72 of its long side), a triangle's shortest edge up to :data:`_TRIANGLE_CHORD`
+    (a cap with two corners under 20° beside an obtuse one has short sides of sin 20° / sin 140° = 0.53 of the long
+    one), any edge of a triangle under the area bound (each of its edges is short).
 
     >>> _chord_limit(4, False), _chord_limit(3, False), _chord_limit(3, True)
     (0.75, 0.6, 1.0)

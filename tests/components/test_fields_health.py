@@ -227,10 +227,11 @@ def test_a_folded_quad_on_the_outline_is_dropped():
     assert repair.candidate_health(X, F2).healthy
 
 
-def test_the_last_pass_drops_a_pentagon_in_a_bend_of_the_outline():
+def test_a_pentagon_in_a_bend_of_the_outline_is_dropped_when_asked():
     """A non-convex pentagon with all its corners on the outline (a notch on the top edge of a 3 × 3 grid, its
     reflex corner at (1.5, 3.1)): an 80k-triangle canopy's best-ranked candidates kept such pentagons after repair.
-    The last pass drops it (the passes before keep pentagons: one unhealthy only in an early pass may heal)."""
+    The boundary-face drop takes it with ``pentagons`` (what the repair's last pass asks for; the passes before keep
+    pentagons: one unhealthy only in an early pass may heal). (Here the whole repair heals it by a split first.)"""
     from components.core.mesh import pad_faces, quad_grid, triangulate
 
     V, Q = quad_grid(3, 3, 3.0, 3.0)  # vertex j * 4 + i at (i, j): 13 at (1, 3), 14 at (2, 3) on the top edge
