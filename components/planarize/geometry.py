@@ -21,6 +21,8 @@ from components.metrics.health import face_health
 __all__ = ["FaceFrames", "einsum_sum3", "corner_turns", "Stars", "vertex_stars", "LoopIndex", "crossing_pairs",
            "CrossingWatch"]
 
+_AT_VERTEX = 1e-9  # a closest point this share of its segment's length from a loop vertex is at the vertex
+
 
 # ----------------------------------------------------------------------------------------------
 # per-iteration face normals and corner turns
@@ -193,13 +195,18 @@ def vertex_stars(F: np.ndarray, n: int) -> Stars:
 class LoopIndex:
     """Closest points on a set of closed vertex loops (the boundary polylines to slide on), with unit tangents.
 
-    One :class:`components.core.proximity.PolylineIndex` per loop; a query keeps the nearest loop.
+    One :class:`components.core.proximity.PolylineIndex` per loop; a query keeps the nearest loop. A point whose
+    closest point is a loop's vertex (within :data:`_AT_VERTEX` of a segment's length from it) gets the vertex's
+    tangent, the mean of its two segments' unit tangents, whichever segment the search returns: otherwise the
+    round-off of the query picks one of the two (a candidate's boundary vertex snapped onto a vertex of the
+    outline), and the same mesh in m and in mm is solved with another metric there and takes another path.
     """
 
     def __init__(self, X: np.ndarray, loops: list):
         kept = [k for k, lp in enumerate(loops) if len(lp) >= 2]
         self._numbers = np.array(kept, dtype=np.int64)  # the kept loops' positions in ``loops``
         self._loops = [PolylineIndex(X[loops[k]], closed=True, name="boundary") for k in kept]
+        self._tangents = [_loop_tangents(idx) for idx in self._loops]
 
     def __bool__(self):
         return bool(self._loops)
@@ -222,16 +229,31 @@ class LoopIndex:
         L = np.full(len(P), -1, dtype=np.int64)
         if len(P) == 0:
             return Q, T, L
-        for number, idx in zip(self._numbers, self._loops):
+        for number, idx, (seg_t, vert_t) in zip(self._numbers, self._loops, self._tangents):
             res = idx.query(P, name="boundary vertices")
             better = res.distances < best_d
             if better.any():
                 best_d[better] = res.distances[better]
                 Q[better] = res.points[better]
                 L[better] = number
-                t = idx.B[res.segments[better]] - idx.A[res.segments[better]]
-                T[better] = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+                s, t = res.segments[better], res.t[better]
+                tang = seg_t[s]
+                at_a, at_b = t <= _AT_VERTEX, t >= 1.0 - _AT_VERTEX
+                tang[at_a] = vert_t[s[at_a]]
+                tang[at_b] = vert_t[(s[at_b] + 1) % len(vert_t)]
+                T[better] = tang
         return Q, T, L
+
+
+def _loop_tangents(idx) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents of a closed loop's segments and of its vertices (the mean of the two segments' there; the
+    incoming segment's where they cancel)."""
+    t = idx.B - idx.A
+    seg_t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    v = seg_t + np.roll(seg_t, 1, axis=0)  # vertex i: segments i (outgoing) and i - 1 (incoming)
+    nv = np.linalg.norm(v, axis=1, keepdims=True)
+    vert_t = np.where(nv > 1e-12, v / np.maximum(nv, 1e-300), np.roll(seg_t, 1, axis=0))
+    return seg_t, vert_t
 
 
 # ----------------------------------------------------------------------------------------------

@@ -77,6 +77,7 @@ __all__ = ["GUARDS", "PanelGuard", "HealthBounds", "panel_guard", "health_bounds
 #: the guards' names, as ``State.failed`` and the stop reason give them
 GUARDS = ("corner", "convexity", "edge", "area", "fold", "flip", "crossing")
 _DRIFT = 0.15  # room for the result's median edge to grow over the input's before the verdict's bound is missed
+_MIN_LIFT = 0.2  # a corner's row acts this share of the margin under its start, and at least as far over its bound
 _WORSEN = 0.1  # an item (corner, edge, face) that starts under its bound may lose at most this share of its value
 _EDGE_MARGIN = (1.10, 1.05)  # an edge below (act, target) × its bound gets a row lifting it to the target
 _AREA_MARGIN = (1.20, 1.10)
@@ -145,9 +146,14 @@ def panel_guard(prob) -> PanelGuard:
     lo = max(A if w >= A else (1.0 - _WORSEN) * w, g * w)  # the quads' worst corner's bound
     floor = np.maximum(np.where(sharp_in >= A, A, (1.0 - _WORSEN) * sharp_in),
                        np.minimum(g * w, (1.0 - _WORSEN) * sharp_in))
-    # rows start 5° above the bound and lift to halfway there; a corner that starts under the bound is held near
-    # where it started
-    sharp_act = np.minimum(floor + np.minimum(math.radians(5.0), 0.5 * floor), np.maximum(sharp_in, floor))
+    # a corner's row acts once the corner is within the margin (5°, or half its bound) of its bound and has lost a
+    # fifth of the margin from where it started, and lifts it halfway from the bound to where the row acts: at
+    # least a tenth of the margin over the bound (a corner that starts just over it, e.g. at 20.04°, had its target
+    # 0.02° over it, under a step's second-order error: an 80k-triangle canopy crawled 49 iterations at steps of
+    # 1/64), and not at the value it starts at (whether such a row acts at the first step was the round-off of
+    # the input: other paths in m and in mm)
+    margin = np.minimum(math.radians(5.0), 0.5 * floor)
+    sharp_act = np.clip(np.maximum(sharp_in, floor) - _MIN_LIFT * margin, floor + _MIN_LIFT * margin, floor + margin)
     sharp_tgt = floor + 0.5 * (sharp_act - floor)
     # turns (convexity): a corner's turn may not fall below sin(g × the quads' worst turn), nor below g × its own
     lo_t = g * float(np.arcsin(np.clip(turn_in[ref_corners], 0.0, 1.0)).min()) if ref_corners.any() else 0.0

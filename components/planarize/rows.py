@@ -98,7 +98,7 @@ def soft_terms(prob, X, value_only=False):
     if alpha > 0 and len(close_idx):
         if prob.XR is not None:
             res = prob.reference_query(X)
-            C, Nc = res.points[close_idx], prob.NR[res.faces[close_idx]]
+            C, Nc = res.points[close_idx], prob.reference_normals(res, close_idx)
         else:
             C, Nc = prob.X0[close_idx], prob.N0[close_idx]
         dist = np.einsum("ij,ij->i", X[close_idx] - C, Nc)

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from components.core.errors import InputError
-from components.core.mesh import boundary_loops, quad_grid
+from components.core.mesh import boundary_loops, quad_grid, triangulate
+from components.core.proximity import ClosestPoints
+from components.planarize.geometry import LoopIndex
 from components.planarize.goals import planarity_residual
 from components.planarize.guard import State, evaluate, panel_guard, rows_to_guard, watched_rows
 from components.planarize.phases import Run, final_state, iterate
@@ -133,6 +135,45 @@ def test_step_on_a_warped_grid_lowers_the_score_and_stays_healthy():
 # ----------------------------------------------------------------------------------------------- the guard
 
 
+def test_a_point_at_a_loop_vertex_gets_the_vertex_tangent():
+    # the corner (1, 0, 0) of a square: the segments before and after it are equally close, and which one the
+    # query returns is round-off (a candidate's boundary vertex snapped onto the outline's vertex, in m or in mm)
+    square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    idx = LoopIndex(square, [np.arange(4)])
+    at_corner = np.array([[1.0, 0.0, 0.0], [1.0 + 2e-16, -1e-17, 0.0], [1.0 - 1e-16, 1e-16, 0.0], [1.3, -0.2, 0.0]])
+    Q, T = idx.query(at_corner)
+    assert np.allclose(Q, [1.0, 0.0, 0.0], atol=1e-15)
+    assert np.allclose(T, np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), atol=1e-12)
+    Q, T = idx.query(np.array([[0.5, -0.1, 0.0], [1.2, 0.25, 0.0]]))  # within a segment: the segment's tangent
+    assert np.allclose(T, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def test_the_closeness_normal_at_a_shared_vertex_or_edge_does_not_depend_on_the_face():
+    # a reference folded along its diagonal: the two triangles' normals differ by 30°; a closest point on the
+    # shared edge or at a shared vertex gets one normal whichever triangle holds it (the edge's, the vertex's), a
+    # point inside a triangle that triangle's
+    V, F = _grid(2)
+    R = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 2.0, 0.0], [0.0, 2.0, 0.0]])
+    R[3, 2] = 2.0 * math.tan(math.radians(30.0)) * math.sqrt(2.0) / 2.0
+    Tr = triangulate(np.array([[0, 1, 2, 3]]))[0]
+    prob, _ = _problem(V, F, reference=(R, Tr))
+    shared = [int(v) for v in np.intersect1d(Tr[0], Tr[1])]
+    assert len(shared) == 2
+    for bary in ([1.0, 0.0], [0.0, 1.0], [0.4, 0.6]):  # each shared vertex, a point on the shared edge
+        normals = []
+        for f in (0, 1):
+            b = np.zeros(3)
+            for v, w in zip(shared, bary):
+                b[list(Tr[f]).index(v)] = w
+            res = ClosestPoints(np.zeros((1, 3)), np.zeros(1), np.array([f]), b[None, :])
+            normals.append(prob.reference_normals(res, np.array([0])))
+        assert np.allclose(normals[0], normals[1], atol=1e-12)
+        assert np.linalg.norm(normals[0]) == pytest.approx(1.0)
+    assert not np.allclose(prob.NR[0], prob.NR[1], atol=0.1)  # the faces' own normals differ
+    inside = ClosestPoints(np.zeros((2, 3)), np.zeros(2), np.array([0, 1]), np.full((2, 3), 1.0 / 3.0))
+    assert np.allclose(prob.reference_normals(inside, np.arange(2)), prob.NR[[0, 1]])
+
+
 def test_guard_rejects_a_corner_below_the_bound():
     V, F = _grid(3)
     prob, guard = _problem(V, F, angle_guard=0.5)
@@ -149,6 +190,25 @@ def test_guard_rejects_a_corner_below_the_bound():
     ok = X.copy()
     ok[v] = prob.X0[v] + [0.05, 0.05, 0.05]  # a small move keeps every corner well above 45°
     assert _state(prob, guard, ok).healthy
+
+
+@pytest.mark.parametrize("start", [20.04, 20.5, 22.0, 30.0])
+def test_a_corner_row_lifts_its_corner_clear_of_the_bound(start):
+    # a sheared grid: every corner starts ``start``° from 0° or 180°, just over the 20° bound or well over it. A
+    # corner pushed onto the bound gets a row lifting it to the target: at least half a degree clear of the bound,
+    # so that a step's second-order error (a few hundredths of a degree at a full step on an 80k-triangle canopy's
+    # candidate) does not put the corner under the bound again at every step (that canopy crawled 49 iterations at
+    # steps of 1/64 when a corner starting at 20.04° had its target 0.02° over the bound)
+    V, F = quad_grid(3, 3, 3.0, 3.0)
+    V[:, 0] += V[:, 1] / math.tan(math.radians(start))
+    prob, guard = _problem(V, F)
+    c = len(prob.corners.v)
+    floor, act, tgt = guard.angle_floor, guard.item_act[:c], guard.item_tgt[:c]
+    assert np.degrees(floor) == pytest.approx(20.0)
+    assert np.all(np.degrees(tgt - floor) >= 0.5 - 1e-9) and np.all(act > tgt)
+    # a corner well over the bound keeps the 5° band: its row acts under 25° and lifts to 22.5°
+    if start >= 25.0:
+        assert np.degrees(act) == pytest.approx(25.0) and np.degrees(tgt) == pytest.approx(22.5)
 
 
 def test_guard_rejects_a_fold():
