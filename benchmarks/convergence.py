@@ -95,6 +95,25 @@ benchmarks/fields.py) and 30 of 42 at 60 (the same candidates as before; compas_
 this machine, as in session 17). On the 200k patch, seeds 0-22: 22 of 23 candidates at the nominal panel count
 and 22 of 23 converged and healthy (benchmarks/fields.py).
 
+Session 19 (session 17's machine), ``--saved`` on 135 saved candidates (the patch at 8k, seeds 0-7 × ×1, ×1000,
++5e6; at 20k, seeds 0-7 × ×1, +5e6 and seeds 0-3 × ×1000; an elliptic canopy with an oval hole at 20k and 80k
+triangles × the three placements; the best-ranked candidates of the 42 shared meshes at 60 and 300 panels), one run
+after the other (components/planarize/guard.py, problem.py, geometry.py):
+- The canopy's 80k candidate crawled 49 iterations at ×1 (64 at ×1000, 16 at +5e6) at steps of 1/64-1/32: a corner
+  that started at 20.04° (bound 20°) had its guard row's target at 20.02°, and every full step's second-order error
+  (-0.04°) put it under the bound again. A corner's row now acts a fifth of the margin under where it started and
+  at least that far over the bound: with the ties below, 23 / 23 / 24 iterations, mean closeness 0.0049 / 0.0049 /
+  0.0050 candidate edges at the three placements (0.0106 / 0.0112 / 0.0053 before).
+- The same candidate at ×1 and ×1000 (equal to 1e-13) took another path from the first step on: boundary vertices
+  snapped onto vertices of the outline are ties between two segments (the sliding tangent) and between the faces
+  around the vertex (the closeness goal's normal), broken by round-off. Now the vertex's tangent and the vertex's or
+  edge's normal: identical candidates at ×1 and ×1000 give the same result (iterations and closeness) on 14 of 15
+  pairs, 3 of 15 before. (Normals interpolated from the vertices everywhere, tried first, left the DOS meshes at 60
+  panels 1.5-4× farther from their surface: not adopted.)
+- All 135: 121 converged before and after, none changed verdict; iterations 3572 → 3404; on the 121 converged
+  mean closeness 0.0100 → 0.0098 edges, CPU 110 → 116 s with 2743 → 2673 iterations. The 20k benchmark candidate:
+  31 → 25 iterations (closeness 0.0059 → 0.0063 edges).
+
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
 - Guard rows *added* to a factored system solved with its factor bordered by them (a Schur complement of up to 64
