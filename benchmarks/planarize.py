@@ -32,6 +32,13 @@ sizes in triangles; the 200k one takes minutes) or read from saved ``.npz`` file
 keys ``V``, ``T``, ``CV``, ``CF``). Each run is a child process (CPU and wall seconds, iterations / factorizations,
 peak resident size).
 
+Session 19 (2-core AMD EPYC), ``--noisy-only --repeats 1``, the code before and after the guard rows' corner margin
+and the tie-free normals and tangents (benchmarks/convergence.py), one run after the other: defaults 60² 0.147 s (4
+iterations), 200² 2.08 s (5 iterations, mean drift 0.175 edge, worst corner 85.9°), unchanged. With the input as
+reference every vertex starts at a vertex of the reference (a tie between the faces around it, now the vertex's
+normal): 60² 2.99 → 2.54 s (25 → 21 iterations, mean closeness 0.071 → 0.077 edges); 200² 29.8 s not converged
+(1.38e-2, backed off to the last healthy state) → 27 s converged (9.6e-5, 13 iterations, closeness 0.108 edges).
+
 Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k] [--noisy-only] [--geometrylab PATH]
 [--candidates N ...] [--candidate-npz PATH ...] [--candidate-budget S] [--candidates-only]``
 """
