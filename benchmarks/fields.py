@@ -173,6 +173,15 @@ oval hole) keeps its best-ranked candidate (2107 panels instead of 2545, extract
 in m, mm and at +5e6, coverage 0.998); the 20k candidates, 83 of the shared meshes' 84 and the default convergence
 sweep are unchanged (DOS cmc1 at 300: 352 panels instead of 384, converged, healthy).
 
+Session 19 (same machine): the planarizer's corner-row margin and tie-free normals (benchmarks/convergence.py) leave
+the benchmark candidates' planarization about as it was: 20k 3.63 s (field 1.1, param 0.2, extract 0.8, planarize
+1.4; 25 iterations instead of 31), 200k 36.0 s (field 13.0, param 3.5, extract 6.1, planarize 13.0), 1.54 GB. 200k
+seeds 0-7 by hand: 33.3-39.2 s, mean 35.6, all at the nominal panel count, converged and healthy. The field of a
+coarse copy (``TWO_LEVEL_FACES`` lowered to 150k, session 17's two-level field) measured again now that the repair
+keeps the nominal panel count: the field 12.1-13.6 → 6.2-6.8 s and every seed still at the nominal count, but the
+planarization 10.9-17.0 → 8.4-31.2 s (the coarse field is less conjugate on the mesh): 24.0-51.2 s, mean 34.4, seed
+6 not converged at the 30 s budget (1.6e-4). Not adopted: the planarization, not the field, bounds the 200k row.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
