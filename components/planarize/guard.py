@@ -76,6 +76,7 @@ __all__ = ["GUARDS", "PanelGuard", "HealthBounds", "panel_guard", "health_bounds
 
 #: the guards' names, as ``State.failed`` and the stop reason give them
 GUARDS = ("corner", "convexity", "edge", "area", "fold", "flip", "crossing")
+_DEGENERATE = 1e-9  # a face under this share of the input's median area is collapsed (has no normal)
 _DRIFT = 0.15  # room for the result's median edge to grow over the input's before the verdict's bound is missed
 _MIN_LIFT = 0.2  # a corner's row acts this share of the margin under its start, and at least as far over its bound
 _WORSEN = 0.1  # an item (corner, edge, face) that starts under its bound may lose at most this share of its value
@@ -119,6 +120,7 @@ class PanelGuard(NamedTuple):
     bounds: HealthBounds
     flip_normals: np.ndarray | None = None  # (m, 3) the reference's unit normals under the input faces (oriented
     flip_on: np.ndarray | None = None  # like the majority of the faces) and the faces not flipped in the input
+    area_eps: float = 0.0  # a face with no more area than this has no normal (its fold and flip values are 0)
 
     @property
     def n_items(self) -> int:
@@ -194,7 +196,8 @@ def panel_guard(prob) -> PanelGuard:
         item_tgt=np.concatenate([sharp_tgt, turn_tgt, _EDGE_MARGIN[1] * len_lift, _AREA_MARGIN[1] * area_lift,
                                  fold_tgt, flip_tgt]),
         fold_faces=fold_faces, open_min=open_min, crossings_in=cross_in[:, 0] * len(F) + cross_in[:, 1],
-        bounds=health_bounds(opts, angle_in, len_in, area_in), **flip)
+        bounds=health_bounds(opts, angle_in, len_in, area_in),
+        area_eps=_DEGENERATE * float(np.median(area_in)) if len(area_in) else 0.0, **flip)
 
 
 def _flip_dots(N, flip_normals) -> np.ndarray:
@@ -332,7 +335,9 @@ def panel_health(prob, guard: PanelGuard, X, crossings: bool = True) -> Health:
     crossing test, the costly one, only when every other guard passes, and only with ``crossings``)."""
     An = prob.frames.normals(X, unit=False)
     areas = norm(An)
-    N = An / np.where(areas > 0, areas, np.inf)[:, None]
+    # a face collapsed to round-off has no normal: none at all, rather than one as random as its round-off (its
+    # fold and flip values 0 in m and in mm alike; which guard rows a collapsing trial adds must not depend on it)
+    N = An / np.where(areas > guard.area_eps, areas, np.inf)[:, None]
     turn, ang = prob.frames.turns(X, N)
     x, y, z = np.ascontiguousarray(X.T)
     E0, E1 = prob.E.T

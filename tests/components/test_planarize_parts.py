@@ -211,6 +211,26 @@ def test_a_corner_row_lifts_its_corner_clear_of_the_bound(start):
         assert np.degrees(act) == pytest.approx(25.0) and np.degrees(tgt) == pytest.approx(22.5)
 
 
+@pytest.mark.parametrize("tilt", [1e-15, -1e-15])
+def test_a_face_collapsed_to_round_off_has_no_normal(tilt):
+    # a trial that collapses a face onto a line: its area is round-off, and so would be its normal's direction
+    # (the fold and flip values across it, and with them which guard rows the trial adds, in m and in mm alike)
+    V, F = _grid(3)
+    R = (V.copy(), triangulate(F)[0])
+    prob, guard = _problem(V, F, reference=R)
+    X = prob.X0.copy()
+    f0 = F[0]  # corners 0, 1, 5, 4: put them on the segment from corner 0 to corner 1, one a round-off off it
+    X[f0] = X[f0[0]] + np.outer([0.0, 0.3, 0.6, 0.9], X[f0[1]] - X[f0[0]])
+    X[f0[2], 1] += tilt
+    st = evaluate(prob, guard, X, np.zeros((0, 3)), crossings=False)
+    c, e, m, i = len(prob.corners.v), len(prob.E), len(prob.F), len(prob.inner_faces)
+    folds, flips = st.values[2 * c + e + m: 2 * c + e + m + i], st.values[2 * c + e + m + i:]
+    assert not st.healthy and "area" in st.failed
+    assert flips[0] == 0.0
+    touching = (prob.inner_faces == 0).any(axis=1)
+    assert touching.any() and np.all(folds[touching] == 0.0)
+
+
 def test_guard_rejects_a_fold():
     V, F = _grid(3)
     prob, guard = _problem(V, F, angle_guard=0.1)
