@@ -118,8 +118,10 @@ after the other (components/planarize/guard.py, problem.py, geometry.py):
 - Through the pipeline, ``--real 300 --placements x1 x1000 +5e6``, the code before and after in the same hour: 117
   of 126 converged and healthy both; the same panels, max planarity and coverage at ×1 and ×1000 on 35 of the 42
   meshes (11 before; the same candidate on 41 both times, rhinovault_mesh_0 gets another at ×1000), the same panel
-  count at ×1 and +5e6 on 35 (35 before: the direction field's rounding, see above). The default sweep: 24 of 24, and
-  ×1 and ×1000 now end at the same max planarity on all 8 pairs; ``--real 60 300``: 30 and 39 of 42 as in session 18.
+  count at ×1 and +5e6 on 35 (35 before: the direction field's rounding, see above). After the collapsed face's
+  normal: 36 of 42 the same at ×1 and ×1000 (igloo too) and 36 the same panel count at +5e6. The default sweep: 24
+  of 24, and ×1 and ×1000 now end at the same max planarity on all 8 pairs; ``--real 60 300``: 30 and 39 of 42 as in
+  session 18.
 
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
