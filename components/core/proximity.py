@@ -772,6 +772,12 @@ class TriangleIndex:
     def oriented(self) -> bool:
         return self._s.oriented()
 
+    def pseudonormals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Unit face normals ``(t, 3)``, the pseudo-normals of every triangle's edges ``(t, 3, 3)`` (AB, BC, CA: the
+        sum of the unit normals of the faces on the edge) and the angle-weighted vertex normals ``(n, 3)`` (not
+        unit), computed on first use and shared with the signed queries."""
+        return self._s.pseudonormals()
+
     def query(self, P, signed: bool = False, name: str = "points") -> ClosestPoints:
         """Closest points on the mesh of every query point.
 

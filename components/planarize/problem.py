@@ -26,8 +26,7 @@ from scipy.spatial import cKDTree
 
 from components.core.checks import check_choice, check_int, check_number, check_points
 from components.core.conformal import cached_boundary_loops
-from components.core.curvature import vertex_normals
-from components.core.measures import quad_planarity, warping_height
+from components.core.measures import quad_planarity, unit, warping_height
 from components.core.mesh import (Corners, boundary_loops, edge_topology, face_corners, face_normals, face_sizes,
                                   triangulate)
 from components.core.proximity import TriangleIndex
@@ -205,9 +204,6 @@ class Problem:
     stair_idx: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # boundary vertices by a staircase
     stair_index: LoopIndex | None = None  # the smoothed staircases they are pulled toward (normalized units)
     stair_weight: float = 0.0  # stiffness of that pull (across the curve)
-    NRV: np.ndarray | None = None  # (nr, 3) unit vertex normals of an oriented reference (None: not oriented)
-    NRE: np.ndarray | None = None  # (er, 3) its edges' unit normals (the mean of their faces')
-    HER: np.ndarray | None = None  # (3 tr,) its half-edges' edges (edge_topology's HE)
     _query: tuple = (None, None)  # the latest closest-point query (positions, result): trial → accepted → next step
     _rows_memo: tuple = (None, None)  # (positions, planarity and conical row blocks) of the latest hard rows
     _normals_memo: tuple = (None, None)  # (positions, unit face normals) of the latest turn guard rows
@@ -231,18 +227,22 @@ class Problem:
         panels ended 1.5-4x farther from their surface.)"""
         f = res.faces[idx]
         N = self.NR[f]
-        if self.NRV is None or not len(f):
+        if not len(f) or not self.ref_index.oriented:
             return N
-        small = res.barycentric[idx] <= _ON_EDGE
+        b = res.barycentric[idx]
+        small = b <= _ON_EDGE
         ties = small.sum(axis=1)
-        at_vertex = ties >= 2
-        if at_vertex.any():
-            corner = np.argmax(res.barycentric[idx][at_vertex], axis=1)
-            N[at_vertex] = self.NRV[self.TR[f[at_vertex], corner]]
-        on_edge = ties == 1
-        if on_edge.any():
-            opposite = np.argmax(small[on_edge], axis=1)  # the edge is the half-edge after the corner opposite it
-            N[on_edge] = self.NRE[self.HER[3 * f[on_edge] + (opposite + 1) % 3]]
+        at_vertex, on_edge = ties >= 2, ties == 1
+        if not (at_vertex.any() or on_edge.any()):
+            return N
+        _, edge_normals, vertex_normals = self.ref_index.pseudonormals()  # the index's own, computed once
+        tie = np.zeros_like(N)
+        tie[at_vertex] = vertex_normals[self.TR[f[at_vertex], np.argmax(b[at_vertex], axis=1)]]
+        # the edge opposite corner k is the triangle's edge k + 1 (AB, BC, CA)
+        tie[on_edge] = edge_normals[f[on_edge], (np.argmax(small[on_edge], axis=1) + 1) % 3]
+        tied = at_vertex | on_edge
+        # two faces folded flat onto each other have no edge normal: the face's own
+        N[tied] = np.where(np.linalg.norm(tie[tied], axis=1, keepdims=True) > 1e-9, unit(tie[tied]), N[tied])
         return N
 
     def project_slide(self, X):
@@ -273,15 +273,13 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
     center = V.mean(axis=0)
     scale = float(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1).mean())
     X0 = (V - center) / scale
-    XR = NR = NRV = NRE = HER = TR = ref_index = ref_loops = None
+    XR = NR = TR = ref_index = ref_loops = None
     if reference is not None:
         Vr, Fr = reference
         XR = (Vr - center) / scale
         TR, _ = triangulate(Fr)
         NR = face_normals(XR, TR)
         ref_index = TriangleIndex(XR, TR, name="reference")
-        if ref_index.oriented:  # the normals of ties on its edges and at its vertices (Problem.reference_normals)
-            NRV, NRE, HER = _tie_normals(XR, TR, NR)
         ref_loops = cached_boundary_loops(Fr, name="reference")  # a caller's surface: its loops found once
     frames = FaceFrames(F, corners)
     N0 = _vertex_normals(X0, corners, frames.normals(X0, unit=False))
@@ -301,9 +299,8 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
     fair_op, fair_major = _fairness_operator(X0, E, stars, opts, n)
     return Problem(
         V=V, F=F, opts=opts, n=n, sizes=sizes, corners=corners, E=E, frames=frames, center=center, scale=scale,
-        X0=X0, N0=N0, reference=reference, XR=XR, NR=NR, TR=TR, NRV=NRV, NRE=NRE, HER=HER,
-        ref_index=ref_index, fixed=fixed,
-        slide=slide, slide_idx=slide_idx, free_idx=np.nonzero(~fixed & ~slide)[0], close_idx=np.nonzero(~fixed)[0],
+        X0=X0, N0=N0, reference=reference, XR=XR, NR=NR, TR=TR, ref_index=ref_index, fixed=fixed, slide=slide,
+        slide_idx=slide_idx, free_idx=np.nonzero(~fixed & ~slide)[0], close_idx=np.nonzero(~fixed)[0],
         bnd_index=bnd_index, Q4=Q4, is_quad_row=is_quad_row, quads=np.nonzero(sizes == 4)[0],
         ngons=np.nonzero(sizes > 4)[0], stars=stars, conical_on=conical_on,
         alpha=(_NORMAL_STIFFNESS if reference is not None else 1.0) * opts.closeness_weight,
@@ -315,17 +312,6 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
 
 # ----------------------------------------------------------------------------------------------
 # vertex roles: fixed / sliding / free
-
-
-def _tie_normals(XR, TR, NR):
-    """Unit normals of an oriented reference's vertices (angle-weighted) and edges (the mean of their faces'), and
-    its half-edges' edges: :meth:`Problem.reference_normals`."""
-    topo = edge_topology(TR)
-    a, b = topo.EF[:, 0], topo.EF[:, 1]
-    NE = NR[a] + np.where((b >= 0)[:, None], NR[np.maximum(b, 0)], 0.0)
-    ne = np.linalg.norm(NE, axis=1, keepdims=True)
-    NE = np.where(ne > 1e-9, NE / np.maximum(ne, 1e-300), NR[a])  # two faces folded flat onto each other: the first
-    return vertex_normals(XR, TR), NE, topo.HE
 
 
 def _vertex_roles(V, F, X0, ref_loops, opts, scale, corners, mesh_name, warnings):
