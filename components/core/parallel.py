@@ -10,7 +10,9 @@ The thread count is :data:`ENV_THREADS` (``GHSERVER_THREADS``) when set (``1`` =
 thread), else one in a process capped under :data:`MIN_CAP_MB` of address space, else the cores this process may
 use, at most :data:`MAX_THREADS`. The pool is made on first use in each process (solver processes are started
 fresh) and a call made from inside a pool thread runs sequentially, so nested uses never wait for each other. Where
-no thread can be started (a process near its address-space cap) the calls run in the calling thread.
+no thread can be started (a process near its address-space cap) the calls run in the calling thread. A SuperLU
+factor made in a helper and used after its call returns is wrapped in :class:`ThreadOwned`, so that its memory is
+released in the helper that made it (SciPy frees it only there).
 
 Example
 -------
@@ -29,7 +31,7 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterable
 
-__all__ = ["ENV_THREADS", "MAX_THREADS", "MIN_CAP_MB", "thread_count", "concurrently", "for_each"]
+__all__ = ["ENV_THREADS", "MAX_THREADS", "MIN_CAP_MB", "ThreadOwned", "thread_count", "concurrently", "for_each"]
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +39,7 @@ ENV_THREADS = "GHSERVER_THREADS"
 MAX_THREADS = 4  # the steps' independent parts are few (pairs of systems, two boundary modes); measured on 2 cores
 MIN_CAP_MB = 4096  # a process capped under this many MB of address space uses one thread (see thread_count)
 _lock = threading.Lock()
-_pool: ThreadPoolExecutor | None = None
+_pool: list[ThreadPoolExecutor] = []
 _pool_key: tuple | None = None  # (pid, size) the pool was made for
 _local = threading.local()
 
@@ -75,24 +77,66 @@ def _address_space_cap_mb() -> float:
     return float("inf") if soft == resource.RLIM_INFINITY or soft < 0 else soft / 2**20
 
 
-def _executor() -> ThreadPoolExecutor | None:
-    """The process's pool of :func:`thread_count` − 1 helper threads (the caller's thread is the last one); None
-    inside a helper thread or with one thread."""
+def _executors() -> list[ThreadPoolExecutor]:
+    """The process's :func:`thread_count` − 1 helper threads (the caller's thread is the last one), each its own
+    one-thread executor so that work can be sent to a given helper (:class:`ThreadOwned`); empty inside a helper
+    thread or with one thread."""
     global _pool, _pool_key
     n = thread_count()
-    if n <= 1 or getattr(_local, "helper", False):
-        return None
+    if n <= 1 or getattr(_local, "home", None) is not None:
+        return []
     key = (os.getpid(), n)
     with _lock:
         if _pool_key != key:  # first use, or a forked child, or another thread count
-            _pool = ThreadPoolExecutor(max_workers=n - 1, thread_name_prefix="ghserver-step",
-                                       initializer=_mark_helper)
+            _pool = [_helper(i) for i in range(n - 1)]
             _pool_key = key
         return _pool
 
 
-def _mark_helper():
-    _local.helper = True
+def _helper(i: int) -> ThreadPoolExecutor:
+    box: list = []
+    ex = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"ghserver-step{i}", initializer=_mark_helper,
+                            initargs=(box,))
+    box.append(ex)  # before its thread starts (at the first submit)
+    return ex
+
+
+def _mark_helper(box: list):
+    _local.home = box[0]  # the helper thread's own executor
+
+
+class ThreadOwned:
+    """``obj`` (a SuperLU factor) released in the thread that made it, whichever thread drops the last reference to
+    this wrapper; its attributes are ``obj``'s (``owned.solve(b)``).
+
+    SciPy's SuperLU tracks the memory of a factorization per thread and frees it only from the thread that
+    allocated it (scipy issue #15921): a factor made in a helper thread of :func:`concurrently` and dropped in the
+    caller's is never freed, and a solver process's address space grew by the factors of every request (the
+    canopy's pipeline three times in one process: 0.50 → 1.46 → 2.13 → 2.79 GB) until a large request met its cap.
+    Made in a helper thread, the wrapper hands ``obj`` back to that helper to be dropped there; made in any other
+    thread (the caller's), it does nothing, and ``obj`` must be dropped in that thread (as a local variable is).
+    Nothing made in a helper that holds such memory may leave the helper's call except in a wrapper."""
+
+    __slots__ = ("_box", "_home", "_pid")
+
+    def __init__(self, obj):
+        self._box = [obj]
+        self._home = getattr(_local, "home", None)
+        self._pid = os.getpid()
+
+    def __getattr__(self, name: str):
+        if name in ThreadOwned.__slots__:  # not set: __init__ did not run to its end
+            raise AttributeError(name)
+        return getattr(self._box[0], name)
+
+    def __del__(self):
+        home = getattr(self, "_home", None)
+        if home is None or getattr(_local, "home", None) is home or os.getpid() != self._pid:
+            return  # made in the caller's thread, or dropped where it was made: released here, as usual
+        try:
+            home.submit(self._box.clear)  # the helper drops the last reference: its memory is freed there
+        except RuntimeError:  # the helper is shut down (the interpreter exits): the memory goes with the process
+            pass
 
 
 def concurrently(*calls: Callable[[], object]) -> list:
@@ -100,13 +144,13 @@ def concurrently(*calls: Callable[[], object]) -> list:
     pool at the same time. When a call runs out of memory (together they may need more than a capped process has),
     the results are dropped and the calls run again one after the other; otherwise the first exception (in call
     order) is raised after all calls have ended."""
-    pool = _executor() if len(calls) > 1 else None
-    if pool is None:
+    helpers = _executors() if len(calls) > 1 else []
+    if not helpers:
         return [c() for c in calls]
     futures = []
-    for c in calls[1:]:
+    for i, c in enumerate(calls[1:]):  # call i + 1 on helper i (round robin), each helper one call at a time
         try:
-            futures.append(pool.submit(c))
+            futures.append(helpers[i % len(helpers)].submit(c))
         except RuntimeError:  # no thread could be started (e.g. a solver process's address-space cap): the rest
             break  # run here, after the first
     out, errors = [None] * len(calls), [None] * len(calls)
@@ -138,7 +182,7 @@ def for_each(fn: Callable[[object], None], items: Iterable) -> None:
     that runs out of memory is run again alone at the end. ``fn`` must only write what belongs to its item."""
     items = list(items)
     n = min(thread_count(), len(items))
-    if n <= 1 or _executor() is None:
+    if n <= 1 or not _executors():
         for it in items:
             fn(it)
         return

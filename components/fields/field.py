@@ -57,7 +57,7 @@ from components.core.checks import check_int, check_mesh, check_number, validate
 from components.core.errors import InputError
 from components.core.measures import unit
 from components.core.mesh import triangulate
-from components.core.parallel import concurrently, for_each
+from components.core.parallel import ThreadOwned, concurrently, for_each
 from components.core.proximity import TriangleIndex
 from components.core.types import Lines, Mesh, Numbers, Points, Vectors
 from components.fields import conjugate_kernels as kernels
@@ -248,7 +248,7 @@ def _factor(A: sp.spmatrix) -> _Preordered:
     perm = reverse_cuthill_mckee(A, symmetric_mode=True).astype(np.int64)
     lu = splu(A[perm][:, perm].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
               options={"SymmetricMode": True})
-    return _Preordered(lu, perm)
+    return _Preordered(ThreadOwned(lu), perm)  # made on a helper thread, it is freed there (core.parallel)
 
 
 def _pinned_solver(A, free: np.ndarray, c: np.ndarray):
