@@ -210,7 +210,7 @@ def _flip_dots(N, flip_normals) -> np.ndarray:
 
 def _flip_watch(prob, N0, area_in) -> dict:
     """The flip guard's data (with an oriented reference): the reference's unit normal at the closest point of
-    every input face's centroid, turned to the side most of the face area lies on (as the verdict's "flipped"
+    every input face's centroid (on a reference edge or vertex its normal there, not one face's), turned to the side most of the face area lies on (as the verdict's "flipped"
     check of :func:`components.metrics.health.face_health` does), and the faces on that side in the input. A
     face whose normal turns against its normal there is flipped: the verdict would find it so (faces slide by at
     most a few edges, where a smooth reference's normal turns little)."""
@@ -219,7 +219,7 @@ def _flip_watch(prob, N0, area_in) -> dict:
     C = prob.corners
     cent = np.stack([np.bincount(C.face, prob.X0[C.v, j], minlength=len(prob.F)) for j in range(3)], axis=1)
     cent /= np.bincount(C.face, minlength=len(prob.F))[:, None]
-    rn = prob.NR[prob.ref_index.query(cent).faces]
+    rn = prob.reference_normals(prob.ref_index.query(cent), np.arange(len(cent)))  # ties as the closeness goal's
     side = np.einsum("ij,ij->i", N0, rn)
     good = area_in > 0
     majority = 1.0 if float(np.sum(area_in[good] * np.sign(side[good]))) >= 0.0 else -1.0

@@ -174,6 +174,20 @@ def test_the_closeness_normal_at_a_shared_vertex_or_edge_does_not_depend_on_the_
     assert np.allclose(prob.reference_normals(inside, np.arange(2)), prob.NR[[0, 1]])
 
 
+def test_the_flip_guards_normal_at_a_reference_edge_does_not_depend_on_the_face():
+    # a ridge along the reference's diagonal (its triangles' normals 2 × 35° apart) under a flat quad whose centroid's
+    # closest point is on the ridge: the flip guard watches the ridge's normal, not one triangle's (which the query's
+    # round-off would pick), as the closeness goal does
+    R = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, -1.0], [2.0, 2.0, 0.0], [0.0, 2.0, -1.0]])
+    Tr = np.array([[0, 1, 2], [0, 2, 3]])
+    V = np.array([[0.0, 0.0, 0.3], [2.0, 0.0, 0.3], [2.0, 2.0, 0.3], [0.0, 2.0, 0.3]])
+    prob, guard = _problem(V, np.array([[0, 1, 2, 3]]), reference=(R, Tr))
+    ridge = prob.NR[0] + prob.NR[1]
+    assert np.allclose(guard.flip_normals[0], ridge / np.linalg.norm(ridge), atol=1e-12)
+    assert not np.allclose(prob.NR[0], prob.NR[1], atol=0.1)
+    assert bool(guard.flip_on[0])
+
+
 def test_guard_rejects_a_corner_below_the_bound():
     V, F = _grid(3)
     prob, guard = _problem(V, F, angle_guard=0.5)
