@@ -392,8 +392,7 @@ def _read_mesh_record(r: _Reader, colors: bool = False, limits: dict | None = No
         r.compressed_buffer(16 * vcount, decode=False)  # surface parameters
     _read_mapping_tag(r)
     r.skip(3)  # manifold, oriented, solid
-    if r.flag():
-        _read_ngons(r)
+    ngons = _read_ngons(r) if r.flag() else []
     dV = None
     if r.flag():
         dV = _read_double_vertices(r)
@@ -406,7 +405,7 @@ def _read_mesh_record(r: _Reader, colors: bool = False, limits: dict | None = No
             raise _Invalid("double precision vertex count differs from vertex count")
         _check_double_vertices(dV, fV)
         V = dV
-    return V, F, C
+    return V, _polygon_faces(F, ngons, vcount), C
 
 
 def _read_mapping_tag(r: _Reader) -> None:
@@ -421,20 +420,84 @@ def _read_mapping_tag(r: _Reader) -> None:
     r.end()
 
 
-def _read_ngons(r: _Reader) -> None:
-    """Read (and discard) the n-gon chunk; faces are unaffected by n-gons."""
+def _read_ngons(r: _Reader) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Read the n-gon chunk: ``[(vi, fi), ...]``, each n-gon's outer boundary vertices in order and its faces."""
     r.begin(_TCODE_ANONYMOUS)
     r.i32()
     r.i32()  # chunk version
     count = r.u32()
+    buf = r.buf
+    out = []
     for _ in range(count):
         nv = r.u32()
         if nv == 0:
             continue
         nf = r.u32()
-        r.skip(4 * nv)
-        r.skip(4 * nf)
+        p = r.take(4 * nv)
+        vi = np.frombuffer(buf, dtype="<u4", count=nv, offset=p).astype(np.int64)
+        p = r.take(4 * nf)
+        out.append((vi, np.frombuffer(buf, dtype="<u4", count=nf, offset=p).astype(np.int64)))
     r.end()
+    return out
+
+
+def _polygon_faces(F: np.ndarray, ngons: list, vcount: int) -> np.ndarray:
+    """``F (m, 4)`` with the faces of every n-gon replaced by one polygon face (its boundary vertices), at the
+    place of its first face, padded by repeating each face's last vertex to the largest corner count.
+
+    An n-gon is used only when it is a simple polygon over its faces: every index in range, each face in one n-gon
+    at most, at least three distinct boundary vertices, and the edges its faces do not share with each other are
+    exactly the consecutive pairs of its boundary (no hole, no stray face); others are ignored (their faces kept),
+    as openNURBS skips a corrupt n-gon. One-face n-gons (Rhino may make one for every face) change nothing.
+    """
+    m = len(F)
+    if not ngons or m == 0:
+        return F
+    owner = np.full(m, -1, dtype=np.int64)
+    keep = []
+    for vi, fi in ngons:
+        if len(fi) < 2 or len(vi) < 3 or len(np.unique(vi)) != len(vi):
+            continue  # one face: the face itself
+        if vi.max() >= vcount or fi.max() >= m or len(np.unique(fi)) != len(fi) or (owner[fi] >= 0).any():
+            continue
+        turn = _outline_turn(F[fi], vi)
+        if turn == 0:
+            continue
+        owner[fi] = len(keep)
+        keep.append(vi if turn > 0 else vi[::-1])
+    if not keep:
+        return F
+    sizes = np.array([len(v) for v in keep])
+    k = max(4, int(sizes.max()))
+    first = np.full(len(keep), m, dtype=np.int64)
+    np.minimum.at(first, owner[owner >= 0], np.flatnonzero(owner >= 0))
+    rows = (owner < 0) | (np.arange(m) == first[np.maximum(owner, 0)])  # plain faces and each n-gon's first face
+    out = np.empty((m, k), dtype=np.int64)
+    out[:, :4] = F
+    out[:, 4:] = F[:, 3:4]
+    for j, vi in enumerate(keep):
+        out[first[j], :len(vi)] = vi
+        out[first[j], len(vi):] = vi[-1]
+    return out[rows]
+
+
+def _outline_turn(Fn: np.ndarray, vi: np.ndarray) -> int:
+    """``1`` when the edges of the faces ``Fn`` (``(f, 4)``, triangles ``(a, b, c, c)``) that no two of them share
+    are exactly the closed polygon ``vi``'s edges, run the way the faces run; ``-1`` when they run the other way;
+    ``0`` when they are not its edges (a hole, a stray face, an edge of three faces)."""
+    a, b = Fn.ravel(), np.roll(Fn, -1, axis=1).ravel()
+    real = a != b  # a triangle's repeated corner is no edge
+    a, b = a[real], b[real]
+    keys, counts = np.unique(np.sort(np.stack([a, b], axis=1), axis=1), axis=0, return_counts=True)
+    if (counts > 2).any():
+        return 0
+    border = keys[counts == 1]
+    ring = np.stack([vi, np.roll(vi, -1)], axis=1)
+    if len(border) != len(vi) or not np.array_equal(border, np.unique(np.sort(ring, axis=1), axis=0)):
+        return 0
+    # the faces' own direction on the outline's first edge
+    forward = np.any((a == ring[0, 0]) & (b == ring[0, 1]))
+    return 1 if forward else -1
 
 
 def _read_double_vertices(r: _Reader) -> np.ndarray:
@@ -523,7 +586,9 @@ def read_mesh(obj: dict, limits: dict | None = None) -> tuple[np.ndarray, np.nda
         ``(V, F)`` with ``V`` of shape ``(n, 3)`` float64 (the double
         precision vertices when the archive holds them, else the float
         vertices) and ``F`` of shape ``(m, 4)`` int64 (triangles stored as
-        ``(a, b, c, c)``).  ``None`` when the data is not an ON_Mesh in a
+        ``(a, b, c, c)``), or ``(m, k)`` when the mesh has n-gons: each
+        n-gon is one face of its boundary vertices, padded by repeating its
+        last vertex (see :func:`_polygon_faces`).  ``None`` when the data is not an ON_Mesh in a
         layout this reader fully understands and verifies (unknown versions,
         user data, CRC or length mismatch, truncation, garbage); the caller
         should then fall back to rhino3dm.  Raises only :class:`TooLarge`
@@ -532,8 +597,8 @@ def read_mesh(obj: dict, limits: dict | None = None) -> tuple[np.ndarray, np.nda
 
     Notes
     -----
-    Normals, texture coordinates, colours, surface parameters, curvatures,
-    mesh parameters and n-gons are checked structurally and skipped; use
+    Normals, texture coordinates, colours, surface parameters, curvatures
+    and mesh parameters are checked structurally and skipped; use
     :func:`read_mesh_colors` to get the vertex colours as well.
     """
     result = _read(obj, False, "read_mesh", limits)
@@ -679,6 +744,22 @@ def _as_mesh_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
+def _ngon_bytes(ngons, vcount: int, fcount: int) -> bytes | None:
+    """The body of the n-gon chunk after its version: count, then per n-gon ``nv, nf, vi..., fi...`` (uint32);
+    None without n-gons."""
+    if ngons is None or len(ngons) == 0:
+        return None
+    parts = [np.array([len(ngons)], dtype="<u4")]
+    for vi, fi in ngons:
+        vi, fi = np.asarray(vi, dtype=np.int64).ravel(), np.asarray(fi, dtype=np.int64).ravel()
+        if len(vi) < 3 or len(fi) < 1:
+            raise ValueError("an n-gon needs at least 3 vertices and 1 face")
+        if vi.min() < 0 or vi.max() >= vcount or fi.min() < 0 or fi.max() >= fcount:
+            raise ValueError("n-gon index out of range")
+        parts.append(np.concatenate([[len(vi), len(fi)], vi, fi]).astype("<u4"))
+    return np.concatenate(parts).tobytes()
+
+
 def _as_color_bytes(colors, n: int) -> bytes:
     """Validate ``colors`` of :func:`write_mesh`; return the ``ON_Color`` array bytes."""
     C = np.asarray(colors)
@@ -698,7 +779,7 @@ def _as_color_bytes(colors, n: int) -> bytes:
     return out.tobytes()
 
 
-def write_mesh(V, F, colors=None, *, compress_level: int | None = None) -> dict:
+def write_mesh(V, F, colors=None, *, ngons=None, compress_level: int | None = None) -> dict:
     """Encode vertices and faces as a JSON-ready openNURBS mesh.
 
     The result has the layout of rhino3dm's ``Mesh.Encode()`` for a mesh with
@@ -718,6 +799,11 @@ def write_mesh(V, F, colors=None, *, compress_level: int | None = None) -> dict:
         Per-vertex RGB or RGBA colours (alpha 255 = opaque, the default for
         RGB), as rhino3dm's ``mesh.VertexColors[i]`` reports them.  Integer
         arrays with values 0..255 are accepted too; floats are rejected.
+    ngons : sequence of (vi, fi), optional
+        N-gons: each one's outer boundary vertex indices in order and the
+        indices of the faces (of ``F``) it is made of, written as openNURBS
+        writes ``ON_Mesh::m_Ngon`` (Rhino shows and exports them as one
+        polygon; :func:`read_mesh` gives them back as one face).
     compress_level : int or None, optional
         ``None`` (default) stores the vertex buffers raw, as openNURBS does
         for an archive with buffer compression disabled; this is several
@@ -739,6 +825,7 @@ def write_mesh(V, F, colors=None, *, compress_level: int | None = None) -> dict:
     V, F = _as_mesh_arrays(V, F)
     vcount, fcount = V.shape[0], F.shape[0]
     cbytes = None if colors is None else _as_color_bytes(colors, vcount)
+    nbytes = _ngon_bytes(ngons, vcount, fcount)
     if compress_level is not None and not 0 <= compress_level <= 9:
         raise ValueError("compress_level must be None or 0..9")
 
@@ -781,7 +868,13 @@ def write_mesh(V, F, colors=None, *, compress_level: int | None = None) -> dict:
     w.write(bytes(20) + _IDENTITY_XFORM + bytes(4))
     w.end()
     w.write(bytes(3))  # manifold / oriented / solid: unknown
-    w.write(b"\x00")  # no n-gons
+    if nbytes is None:
+        w.write(b"\x00")  # no n-gons
+    else:
+        w.write(b"\x01")
+        w.begin_versioned(1, 0)
+        w.write(nbytes)
+        w.end()
     if vcount:
         # double precision vertices (openNURBS writes none for an empty mesh)
         w.write(b"\x01")

@@ -1,8 +1,9 @@
 """rhino3dm ⇄ plain Python values. The only module of the project that imports rhino3dm.
 
 * Mesh ⇄ ``(V, F)``: ``V (n, 3) float64`` (double-precision vertices), ``F (m, 4) int64`` with triangles as
-  ``(a, b, c, c)``; faces with more than four corners are written as a triangle fan (Rhino meshes hold only
-  triangles and quads). Meshes are read and written through the openNURBS archive directly
+  ``(a, b, c, c)``; a face with more than four corners is written as a triangle fan grouped into one n-gon (Rhino
+  meshes hold triangles and quads; n-gons name the polygons they make up), and an n-gon is read back as one face
+  of its boundary vertices (``F (m, k)``, padded by repeating a face's last vertex). Meshes are read and written through the openNURBS archive directly
   (:mod:`ghserver._onmesh`) when its layout is recognised, through rhino3dm objects otherwise.
 * Curve ⇄ polyline ``(n, 3)`` array (PolylineCurve, LineCurve, polyline-shaped NURBS of degree 1) or
   :class:`components.core.types.NurbsCurve` (everything else, through ``ToNurbsCurve``).
@@ -185,7 +186,12 @@ def encode_object(obj) -> str:
 
 
 def mesh_to_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """``(V, F)`` of a rhino3dm Mesh (slow, object-by-object path)."""
+    """``(V, F)`` of a rhino3dm Mesh, its n-gons as polygon faces: through its archive when the fast reader knows
+    the layout (rhino3dm does not expose n-gons), else object by object (then n-gons come as their faces)."""
+    if _onmesh is not None:
+        arrays = _onmesh.read_mesh(mesh.Encode())
+        if arrays is not None:
+            return arrays
     pts = mesh.Vertices.ToPoint3dArray()
     V = np.array([(p.X, p.Y, p.Z) for p in pts], dtype=np.float64).reshape(-1, 3)
     faces = mesh.Faces
@@ -224,29 +230,42 @@ def decode_mesh(data, limits: dict | None = None) -> tuple[np.ndarray, np.ndarra
     return mesh_to_arrays(obj)
 
 
-def _rhino_faces(F: np.ndarray) -> np.ndarray:
-    """Faces as Rhino can hold them: quads and triangles ``(m, 4)``; n-gons become triangle fans."""
+def _rhino_faces(F: np.ndarray) -> tuple[np.ndarray, list]:
+    """Faces as Rhino holds them: quads and triangles ``(m, 4)``, each face of more than four corners as a triangle
+    fan, and ``[(vi, fi), ...]``: the n-gon that gives each such fan back as one polygon (its corners, its fan's
+    rows), as Rhino's own n-gons do."""
     F = np.asarray(F, dtype=np.int64)
     if F.shape[1] == 4:
-        return F
+        return F, []
     if F.shape[1] == 3:
-        return np.concatenate([F, F[:, 2:3]], axis=1)
+        return np.concatenate([F, F[:, 2:3]], axis=1), []
     sizes = face_sizes(F)
+    rows = np.where(sizes <= 4, 1, sizes - 2)  # a face's rows: itself, or its fan, in the faces' order
+    start = np.concatenate([[0], np.cumsum(rows)[:-1]])
+    out = np.empty((int(rows.sum()), 4), dtype=np.int64)
     small = sizes <= 4
-    out = np.empty((len(F), 4), dtype=np.int64)
-    out[:, :4] = F[:, :4]
-    out[sizes == 3, 3] = F[sizes == 3, 2]
-    parts = [out[small]]
-    if (~small).any():
-        T, _ = triangulate(F[~small])
-        parts.append(np.concatenate([T, T[:, 2:3]], axis=1))
-    return np.concatenate(parts)
+    out[start[small]] = F[small, :4]  # a triangle's padding is its last vertex again
+    out[start[sizes == 3], 3] = F[sizes == 3, 2]
+    ngons = []
+    big = np.flatnonzero(~small)
+    if len(big):
+        T, J = triangulate(F[big])  # J: the row of F[big] of each triangle, fans in corner order
+        order = np.argsort(J, kind="stable")
+        T, J = T[order], J[order]
+        at = start[big][J] + (np.arange(len(J)) - np.searchsorted(J, J))  # the fan's k-th triangle at start + k
+        out[at, :3] = T
+        out[at, 3] = T[:, 2]
+        ngons = [(F[f, :n].copy(), np.arange(s0, s0 + n - 2)) for f, n, s0 in zip(big, sizes[big], start[big])]
+    return out, ngons
 
 
 def arrays_to_mesh(V, F, colors=None):
-    """A rhino3dm Mesh with double-precision vertices (object-by-object path)."""
+    """A rhino3dm Mesh with double-precision vertices; faces of more than four corners are n-gons of fans."""
     V = np.asarray(V, dtype=np.float64)
-    F4 = _rhino_faces(F)
+    F4, ngons = _rhino_faces(F)
+    if _onmesh is not None and ngons:  # rhino3dm cannot add n-gons: decode the archive written with them
+        C = None if colors is None else np.clip(np.rint(np.asarray(colors)[:, :3]), 0, 255).astype(np.uint8)
+        return rhino3dm.CommonObject.Decode(_onmesh.write_mesh(V, F4, C, ngons=ngons))
     mesh = rhino3dm.Mesh()
     mesh.Vertices.UseDoublePrecisionVertices = True
     add = mesh.Vertices.AddPoint3d
@@ -263,16 +282,18 @@ def arrays_to_mesh(V, F, colors=None):
 
 
 def encode_mesh(V, F, colors=None) -> str:
-    """JSON text of a Rhino mesh holding ``(V, F)`` (and per-vertex RGB ``colors`` (n, 3) uint8 if given)."""
+    """JSON text of a Rhino mesh holding ``(V, F)`` (and per-vertex RGB ``colors`` (n, 3) uint8 if given); faces of
+    more than four corners are n-gons (triangle fans grouped as one polygon, which :func:`decode_mesh` reads back
+    as the polygon)."""
     V = np.asarray(V, dtype=np.float64)
-    F4 = _rhino_faces(F)
     if colors is not None:
         colors = np.asarray(colors)
         if colors.dtype != np.uint8:
             colors = np.clip(np.rint(colors), 0, 255).astype(np.uint8)
     if _onmesh is not None:
-        return json.dumps(_onmesh.write_mesh(V, F4, colors))
-    return encode_object(arrays_to_mesh(V, F4, colors))
+        F4, ngons = _rhino_faces(F)
+        return json.dumps(_onmesh.write_mesh(V, F4, colors, ngons=ngons))
+    return encode_object(arrays_to_mesh(V, F, colors))
 
 
 # ----------------------------------------------------------------------------------------------

@@ -33,17 +33,71 @@ def test_mesh_round_trip_through_rhino3dm_objects_is_exact():
     assert np.array_equal(V2, V) and np.array_equal(F2, F)
 
 
-def test_triangles_are_stored_as_abcc_and_ngons_as_fans():
+def test_triangles_are_stored_as_abcc_and_polygons_come_back_whole():
     V = np.array([[0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0.5, 1.5, 0], [-0.5, 1, 0]], float)
     F = pad_faces([[0, 1, 2], [0, 2, 3, 4]], k=4)
     V2, F2 = convert.decode_mesh(convert.encode_mesh(V, F))
     assert F2.tolist() == [[0, 1, 2, 2], [0, 2, 3, 4]]
+    # a pentagon is a triangle fan in Rhino's faces, grouped into one n-gon, and comes back as the pentagon
     F5 = pad_faces([[0, 1, 2, 3, 4]])
+    F4, ngons = convert._rhino_faces(F5)
+    assert F4.tolist() == [[0, 1, 2, 2], [0, 2, 3, 3], [0, 3, 4, 4]]
+    assert [(v.tolist(), f.tolist()) for v, f in ngons] == [([0, 1, 2, 3, 4], [0, 1, 2])]
     _, F3 = convert.decode_mesh(convert.encode_mesh(V, F5))
-    assert F3.tolist() == [[0, 1, 2, 2], [0, 2, 3, 3], [0, 3, 4, 4]]
+    assert F3.tolist() == [[0, 1, 2, 3, 4]]
     T = np.array([[0, 1, 2]])
     _, F4 = convert.decode_mesh(convert.encode_mesh(V, T))
     assert F4.tolist() == [[0, 1, 2, 2]]
+
+
+def _polygon_mesh():
+    """Triangles, quads, pentagons and a hexagon in mixed order (a network pipeline's panels are like this)."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0.5, 1.5, 0], [-0.5, 1, 0], [2, 2, 0.1], [3, 2, 0.2],
+                  [3.5, 3, 0.1], [2.5, 3.5, 0.3]], float)
+    F = pad_faces([[0, 1, 2], [0, 1, 2, 3, 4], [1, 5, 6, 2], [0, 2, 3, 4], [2, 5, 6, 7, 8, 3], [2, 6, 7, 8, 3]])
+    return V, F
+
+
+def test_polygon_faces_round_trip_exactly_in_their_order():
+    V, F = _polygon_mesh()
+    V2, F2 = convert.decode_mesh(convert.encode_mesh(V, F))
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+    # through rhino3dm (openNURBS reads the n-gons into its mesh and writes them again) and through a .3dm file
+    mesh = rhino3dm.CommonObject.Decode(json.loads(convert.encode_mesh(V, F)))
+    assert len(mesh.Faces) == 1 + 3 + 1 + 1 + 4 + 3  # Rhino's own faces: the fans
+    assert np.array_equal(convert.mesh_to_arrays(mesh)[1], F)
+    assert np.array_equal(convert.mesh_to_arrays(convert.arrays_to_mesh(V, F))[1], F)
+
+
+def test_polygon_panels_are_n_gons_in_a_3dm_file(tmp_path):
+    V, F = _polygon_mesh()
+    path = convert.write_meshes_3dm(tmp_path / "panels.3dm", [("panels", "roof", V, F)])
+    model = rhino3dm.File3dm.Read(str(path))  # the independent reader: openNURBS
+    geo = model.Objects[0].Geometry
+    assert isinstance(geo, rhino3dm.Mesh) and len(geo.Faces) == 13
+    V2, F2 = convert.read_3dm(path)[:2]
+    assert np.array_equal(V2, V) and np.array_equal(F2, F)
+
+
+def _with_ngons(V, F4, ngons):
+    from ghserver import _onmesh
+
+    return _onmesh.read_mesh(_onmesh.write_mesh(V, F4, ngons=ngons))[1]
+
+
+def test_an_n_gon_that_is_not_a_simple_polygon_of_its_faces_leaves_them_as_they_are():
+    V, Q = quad_grid(3, 3, 3.0, 3.0)  # 9 quads around the centre one (4)
+    ring = [0, 1, 2, 3, 7, 11, 15, 14, 13, 12, 8, 4]  # the outline of all nine
+    around = [f for f in range(9) if f != 4]
+    assert _with_ngons(V, Q, [(ring, range(9))]).tolist() == [ring] * 1  # all nine: one 12-gon
+    assert np.array_equal(_with_ngons(V, Q, [(ring, around)]), Q)  # a ring with a hole: not an n-gon here
+    assert np.array_equal(_with_ngons(V, Q, [(ring[:6] + [5], [0, 1, 3, 4])]), Q)  # not its faces' outline
+    assert np.array_equal(_with_ngons(V, Q, [([0, 1, 5, 4], [0])]), Q)  # one face: itself
+    twice = [([0, 1, 2, 6, 5, 4], [0, 1]), ([1, 2, 3, 7, 6, 5], [1, 2])]  # face 1 in two n-gons: the second ignored
+    assert _with_ngons(V, Q, twice).tolist()[:2] == [[0, 1, 2, 6, 5, 4], [2, 3, 7, 6, 6, 6]]
+    # an outline given the other way round is turned to run as its faces do
+    F = _with_ngons(V, Q, [([4, 5, 6, 2, 1, 0], [0, 1])])
+    assert F[0].tolist() == [0, 1, 2, 6, 5, 4]
 
 
 def test_real_rhinocommon_mesh_decodes():

@@ -353,7 +353,7 @@ def _ngon_chunk(ngons: list[tuple[list[int], list[int]]]) -> bytes:
 
 
 def test_mesh_with_ngons_is_read():
-    """An n-gon record (as RhinoCommon may send) does not change V/F: it is checked and skipped."""
+    """An n-gon record (as RhinoCommon may send) makes its faces one polygon face; rhino3dm keeps the faces."""
     V = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]])
     F = np.array([[0, 1, 2, 3], [1, 4, 5, 2]])
     obj = write_mesh(V, F)  # uncompressed, so the layout below is fixed
@@ -379,7 +379,7 @@ def test_mesh_with_ngons_is_read():
     rh = rhino3dm.CommonObject.Decode(patched)
     assert isinstance(rh, rhino3dm.Mesh)
     assert_same(rh_view(rh), (V, F))
-    assert_same(read_mesh(patched), (V, F))
+    assert_same(read_mesh(patched), (V, np.array([[0, 1, 4, 5, 2, 3]])))
 
 
 # ----------------------------------------------------------------------------------------------
