@@ -536,7 +536,11 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
     return UV, {"weights": kind, "corners": corners, "warnings": warnings}
 
 
-def check_disk(V, T, loops):
+#: what to do about a mesh that is not a disk, for the disk and square maps (LSCM takes several loops)
+DISK_ADVICE = "a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles several boundary loops"
+
+
+def check_disk(V, T, loops, advice: str = DISK_ADVICE):
     """Refuse a triangle mesh that is not one topological disk (one component, one boundary loop, Euler
     characteristic 1) with a typed error naming ``mesh``.
 
@@ -575,8 +579,7 @@ def check_disk(V, T, loops):
         raise MeshError(
             "mesh",
             f"not a topological disk ({len(loops)} boundary loops, genus {genus}, Euler characteristic {chi}): "
-            "a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles "
-            "several boundary loops",
+            + advice,
         )
 
 

@@ -72,6 +72,10 @@ __all__ = [
 ]
 
 PLANE_MAPS = ("lscm", "disk")
+#: what to do with a surface the rebuild cannot take (its lines are intersected in one plane map of a disk)
+NOT_A_DISK = ("the curvature-network rebuild needs a surface with exactly one boundary loop and no handle; fill its "
+              "holes or split it into disk-like patches, or use fields/pq_from_conjugate_field (the conjugate "
+              "strategy), which takes surfaces with holes")
 BOUNDARY_CELLS = ("extend", "trim", "keep")
 MAX_BULGE = 0.12  # × median edge: healed cells under which the surface bulges more are split (coverage: 0.25)
 
@@ -122,7 +126,7 @@ _PLANE = ContentCache("plane maps")  # the last plane map computed (plane_map)
 
 def _plane_map(V, T, method):
     warnings: list[str] = []
-    check_disk(V, T, cached_boundary_loops(T))
+    check_disk(V, T, cached_boundary_loops(T), NOT_A_DISK)
     UV = None
     if method == "lscm":
         UV = lscm(V, T)

@@ -667,7 +667,9 @@ def check_disk_surface(surface, name: str = "surface") -> tuple[np.ndarray, np.n
     T = F if F.shape[1] == 3 else triangulate(F)[0]
     loops = boundary_loops(T, name=name)
     if len(loops) != 1:
-        raise InputError(name, f"must be a topological disk with one boundary loop, it has {len(loops)}")
+        raise InputError(name, f"must be a topological disk with one boundary loop, it has {len(loops)}: fill its "
+                               "holes or split it into disk-like patches, or use fields/pq_from_conjugate_field "
+                               "(the conjugate strategy), which takes surfaces with holes")
     return V, T
 
 

@@ -208,8 +208,11 @@ def test_bad_inputs(patch):
     remap = np.arange(len(Vg)).reshape(4, 9) % 9
     remap = (np.arange(4)[:, None] * 8 + np.where(np.arange(9) == 8, 0, np.arange(9))[None, :]).ravel()
     Ta = triangulate(remap[Q])[0]
-    with pytest.raises(MeshError, match="disk"):
+    with pytest.raises(MeshError, match="disk") as err:
         plane_map(Va, Ta)
+    # what to do, with the strategy's own inputs (it maps by LSCM already: no "method" to set)
+    assert "fill its holes" in str(err.value) and "pq_from_conjugate_field" in str(err.value)
+    assert "method=" not in str(err.value)
     with pytest.raises(InputError, match="method"):
         plane_map(V, T, method="sphere")
 

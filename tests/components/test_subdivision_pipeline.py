@@ -115,6 +115,9 @@ def test_bad_input_before_heavy_work(no_heavy_work, nonmanifold_fan):
         pq_from_subdivision(V)
     with pytest.raises(InputError, match="faces"):
         pq_from_subdivision((V, T), faces=0)
+    G, Q = quad_grid(4, 4, 4.0, 4.0)  # a square with the middle quads cut out: two boundary loops
+    with pytest.raises(InputError, match=r"^surface: must be a topological disk .* it has 2: fill its holes"):
+        pq_from_subdivision((G, Q[[0, 1, 2, 3, 4, 7, 8, 11, 12, 13, 14, 15]]), faces=4)
     with pytest.raises(InputError, match="layout"):
         pq_from_subdivision((V, T), layout="spiral")
 
