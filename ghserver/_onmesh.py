@@ -55,6 +55,7 @@ import binascii
 import logging
 import struct
 import zlib
+from typing import NamedTuple
 
 import numpy as np
 
@@ -392,7 +393,7 @@ def _read_mesh_record(r: _Reader, colors: bool = False, limits: dict | None = No
         r.compressed_buffer(16 * vcount, decode=False)  # surface parameters
     _read_mapping_tag(r)
     r.skip(3)  # manifold, oriented, solid
-    ngons = _read_ngons(r) if r.flag() else []
+    ngons = _read_ngons(r) if r.flag() else None
     dV = None
     if r.flag():
         dV = _read_double_vertices(r)
@@ -420,84 +421,130 @@ def _read_mapping_tag(r: _Reader) -> None:
     r.end()
 
 
-def _read_ngons(r: _Reader) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Read the n-gon chunk: ``[(vi, fi), ...]``, each n-gon's outer boundary vertices in order and its faces."""
-    r.begin(_TCODE_ANONYMOUS)
+def _unique_rows(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of an ``(r, 2)`` integer array (sorted) and how often each occurs (``np.unique(axis=0)``,
+    without its slow sort of row records)."""
+    K = K[np.lexsort((K[:, 1], K[:, 0]))]
+    new = np.r_[True, (K[1:] != K[:-1]).any(axis=1)] if len(K) else np.zeros(0, dtype=bool)
+    at = np.flatnonzero(new)
+    return K[at], np.diff(np.r_[at, len(K)])
+
+
+class _Ngons(NamedTuple):
+    """N-gons as flat arrays: per n-gon its vertex and face counts, then all vertex and all face indices."""
+
+    nv: np.ndarray
+    nf: np.ndarray
+    vi: np.ndarray
+    fi: np.ndarray
+
+
+def _read_ngons(r: _Reader) -> _Ngons:
+    """Read the n-gon chunk (per n-gon ``nv, nf``, its outer boundary's ``nv`` vertices in order, its ``nf``
+    faces; uint32 all)."""
+    _, length = r.begin(_TCODE_ANONYMOUS)
     r.i32()
     r.i32()  # chunk version
     count = r.u32()
-    buf = r.buf
-    out = []
+    rest = length - 4 - 12  # the body after version and count, less the CRC
+    if rest < 0 or rest % 4:
+        raise _Invalid("n-gon chunk length")
+    words = np.frombuffer(r.buf, dtype="<u4", count=rest // 4, offset=r.take(rest)).astype(np.int64)
+    w = words.tolist()  # the records have their own lengths: one pass over plain ints
+    nv, nf, starts, at = [], [], [], 0
     for _ in range(count):
-        nv = r.u32()
-        if nv == 0:
+        if at >= len(w):
+            raise _Invalid("n-gon chunk truncated")
+        if w[at] == 0:  # an empty n-gon: its count only
+            at += 1
             continue
-        nf = r.u32()
-        p = r.take(4 * nv)
-        vi = np.frombuffer(buf, dtype="<u4", count=nv, offset=p).astype(np.int64)
-        p = r.take(4 * nf)
-        out.append((vi, np.frombuffer(buf, dtype="<u4", count=nf, offset=p).astype(np.int64)))
+        if at + 2 > len(w):
+            raise _Invalid("n-gon chunk truncated")
+        nv.append(w[at])
+        nf.append(w[at + 1])
+        starts.append(at + 2)
+        at += 2 + w[at] + w[at + 1]
+    if at != len(w):
+        raise _Invalid("n-gon records do not fill their chunk")
     r.end()
-    return out
+    nv, nf, starts = (np.array(x, dtype=np.int64) for x in (nv, nf, starts))
+    vpos = np.repeat(starts - np.r_[0, np.cumsum(nv)[:-1]], nv) + np.arange(int(nv.sum()))
+    fpos = np.repeat(starts + nv - np.r_[0, np.cumsum(nf)[:-1]], nf) + np.arange(int(nf.sum()))
+    return _Ngons(nv, nf, words[vpos], words[fpos])
 
 
-def _polygon_faces(F: np.ndarray, ngons: list, vcount: int) -> np.ndarray:
-    """``F (m, 4)`` with the faces of every n-gon replaced by one polygon face (its boundary vertices), at the
-    place of its first face, padded by repeating each face's last vertex to the largest corner count.
+def _polygon_faces(F: np.ndarray, ngons: _Ngons | None, vcount: int) -> np.ndarray:
+    """``F (m, 4)`` with the faces of every n-gon replaced by one polygon face (its boundary vertices, run as its
+    faces run), at the place of its first face, padded by repeating each face's last vertex to the largest corner
+    count.
 
-    An n-gon is used only when it is a simple polygon over its faces: every index in range, each face in one n-gon
-    at most, at least three distinct boundary vertices, and the edges its faces do not share with each other are
-    exactly the consecutive pairs of its boundary (no hole, no stray face); others are ignored (their faces kept),
-    as openNURBS skips a corrupt n-gon. One-face n-gons (Rhino may make one for every face) change nothing.
+    An n-gon is used only when it is a simple polygon over its faces: every index in range, at least three
+    distinct boundary vertices, faces in no other n-gon, and the edges its faces do not share with each other are
+    exactly the consecutive pairs of its boundary (no hole, no stray face, no edge of three faces); others are
+    ignored (their faces kept), as openNURBS skips a corrupt n-gon. One-face n-gons (Rhino may make one for every
+    face) change nothing.
     """
     m = len(F)
-    if not ngons or m == 0:
+    if ngons is None or len(ngons.nv) == 0 or m == 0:
         return F
+    nv, nf, vi, fi = ngons
+    g = len(nv)
+    gv, gf = np.repeat(np.arange(g), nv), np.repeat(np.arange(g), nf)
+    ok = (nv >= 3) & (nf >= 2)  # one face: the face itself
+    ok &= np.bincount(gv, weights=vi >= vcount, minlength=g) == 0
+    ok &= np.bincount(gf, weights=fi >= m, minlength=g) == 0
+    vkey = gv * max(vcount, 1) + np.minimum(vi, vcount)  # distinct vertices within an n-gon
+    s = np.sort(vkey)
+    ok[s[1:][s[1:] == s[:-1]] // max(vcount, 1)] = False
+    # a face in two n-gons (or twice in one): neither is used
+    cf = ok[gf]
+    faces, seen = np.unique(fi[cf], return_counts=True)
+    shared = np.isin(fi, faces[seen > 1]) & cf
+    ok[gf[shared]] = False
+    # the outline: the faces' unshared edges are the boundary's edges
+    cf = ok[gf]
+    A = F[fi[cf]]
+    a, b, ge = A.ravel(), np.roll(A, -1, axis=1).ravel(), np.repeat(gf[cf], 4)
+    real = a != b  # a triangle's repeated corner is no edge
+    a, b, ge = a[real], b[real], ge[real]
+    n = np.int64(max(vcount, 1))
+    edges, count = _unique_rows(np.stack([ge, np.minimum(a, b) * n + np.maximum(a, b)], axis=1))
+    ok[edges[count > 2, 0]] = False
+    cv = ok[gv]
+    start = np.r_[0, np.cumsum(nv)[:-1]]
+    nxt = np.arange(len(vi)) + 1
+    nxt[start + nv - 1] = start  # each boundary vertex's successor, around its own n-gon
+    ring = np.stack([gv, np.minimum(vi, vi[nxt]) * n + np.maximum(vi, vi[nxt])], axis=1)[cv]
+    border = edges[count == 1]
+    border = border[ok[border[:, 0]]]
+    both, twice = _unique_rows(np.concatenate([border, ring]))
+    ok[both[twice != 2, 0]] = False  # an edge of the outline or of the faces' border only
+    if not ok.any():
+        return F
+    # each n-gon's first boundary edge, run the way its faces run: forward; else the boundary is reversed
+    v0, v1 = vi[start], vi[start + 1]
+    forward = np.zeros(g, dtype=bool)
+    forward[ge[(a == v0[ge]) & (b == v1[ge])]] = True
+    # the polygon rows
+    good = np.flatnonzero(ok)
     owner = np.full(m, -1, dtype=np.int64)
-    keep = []
-    for vi, fi in ngons:
-        if len(fi) < 2 or len(vi) < 3 or len(np.unique(vi)) != len(vi):
-            continue  # one face: the face itself
-        if vi.max() >= vcount or fi.max() >= m or len(np.unique(fi)) != len(fi) or (owner[fi] >= 0).any():
-            continue
-        turn = _outline_turn(F[fi], vi)
-        if turn == 0:
-            continue
-        owner[fi] = len(keep)
-        keep.append(vi if turn > 0 else vi[::-1])
-    if not keep:
-        return F
-    sizes = np.array([len(v) for v in keep])
-    k = max(4, int(sizes.max()))
-    first = np.full(len(keep), m, dtype=np.int64)
+    owner[fi[ok[gf]]] = gf[ok[gf]]
+    first = np.full(g, m, dtype=np.int64)
     np.minimum.at(first, owner[owner >= 0], np.flatnonzero(owner >= 0))
     rows = (owner < 0) | (np.arange(m) == first[np.maximum(owner, 0)])  # plain faces and each n-gon's first face
+    k = max(4, int(nv[good].max()))
     out = np.empty((m, k), dtype=np.int64)
     out[:, :4] = F
     out[:, 4:] = F[:, 3:4]
-    for j, vi in enumerate(keep):
-        out[first[j], :len(vi)] = vi
-        out[first[j], len(vi):] = vi[-1]
+    sel = ok[gv]
+    pos = (np.arange(len(vi)) - start[gv])[sel]
+    rev = ~forward[gv[sel]]
+    pos = np.where(rev, nv[gv[sel]] - 1 - pos, pos)
+    r = first[gv[sel]]
+    last = np.where(forward[good], vi[start[good] + nv[good] - 1], vi[start[good]])
+    out[first[good]] = last[:, None]
+    out[r, pos] = vi[sel]
     return out[rows]
-
-
-def _outline_turn(Fn: np.ndarray, vi: np.ndarray) -> int:
-    """``1`` when the edges of the faces ``Fn`` (``(f, 4)``, triangles ``(a, b, c, c)``) that no two of them share
-    are exactly the closed polygon ``vi``'s edges, run the way the faces run; ``-1`` when they run the other way;
-    ``0`` when they are not its edges (a hole, a stray face, an edge of three faces)."""
-    a, b = Fn.ravel(), np.roll(Fn, -1, axis=1).ravel()
-    real = a != b  # a triangle's repeated corner is no edge
-    a, b = a[real], b[real]
-    keys, counts = np.unique(np.sort(np.stack([a, b], axis=1), axis=1), axis=0, return_counts=True)
-    if (counts > 2).any():
-        return 0
-    border = keys[counts == 1]
-    ring = np.stack([vi, np.roll(vi, -1)], axis=1)
-    if len(border) != len(vi) or not np.array_equal(border, np.unique(np.sort(ring, axis=1), axis=0)):
-        return 0
-    # the faces' own direction on the outline's first edge
-    forward = np.any((a == ring[0, 0]) & (b == ring[0, 1]))
-    return 1 if forward else -1
 
 
 def _read_double_vertices(r: _Reader) -> np.ndarray:
@@ -746,18 +793,30 @@ def _as_mesh_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
 
 def _ngon_bytes(ngons, vcount: int, fcount: int) -> bytes | None:
     """The body of the n-gon chunk after its version: count, then per n-gon ``nv, nf, vi..., fi...`` (uint32);
-    None without n-gons."""
-    if ngons is None or len(ngons) == 0:
+    None without n-gons. ``ngons``: ``[(vi, fi), ...]`` or :class:`_Ngons`."""
+    if ngons is None or len(ngons) == 0 or (isinstance(ngons, _Ngons) and len(ngons.nv) == 0):
         return None
-    parts = [np.array([len(ngons)], dtype="<u4")]
-    for vi, fi in ngons:
-        vi, fi = np.asarray(vi, dtype=np.int64).ravel(), np.asarray(fi, dtype=np.int64).ravel()
-        if len(vi) < 3 or len(fi) < 1:
-            raise ValueError("an n-gon needs at least 3 vertices and 1 face")
-        if vi.min() < 0 or vi.max() >= vcount or fi.min() < 0 or fi.max() >= fcount:
-            raise ValueError("n-gon index out of range")
-        parts.append(np.concatenate([[len(vi), len(fi)], vi, fi]).astype("<u4"))
-    return np.concatenate(parts).tobytes()
+    if not isinstance(ngons, _Ngons):
+        pairs = [(np.asarray(v, dtype=np.int64).ravel(), np.asarray(f, dtype=np.int64).ravel()) for v, f in ngons]
+        ngons = _Ngons(np.array([len(v) for v, _ in pairs], dtype=np.int64),
+                       np.array([len(f) for _, f in pairs], dtype=np.int64),
+                       np.concatenate([v for v, _ in pairs]), np.concatenate([f for _, f in pairs]))
+    nv, nf, vi, fi = (np.asarray(x, dtype=np.int64) for x in ngons)
+    if (nv < 3).any() or (nf < 1).any():
+        raise ValueError("an n-gon needs at least 3 vertices and 1 face")
+    if len(vi) != nv.sum() or len(fi) != nf.sum():
+        raise ValueError("n-gon counts do not match their indices")
+    if vi.min() < 0 or vi.max() >= vcount or fi.min() < 0 or fi.max() >= fcount:
+        raise ValueError("n-gon index out of range")
+    size = 2 + nv + nf
+    start = np.r_[0, np.cumsum(size)[:-1]] + 1  # after the count
+    out = np.empty(1 + int(size.sum()), dtype="<u4")
+    out[0] = len(nv)
+    out[start] = nv
+    out[start + 1] = nf
+    out[np.repeat(start + 2 - np.r_[0, np.cumsum(nv)[:-1]], nv) + np.arange(len(vi))] = vi
+    out[np.repeat(start + 2 + nv - np.r_[0, np.cumsum(nf)[:-1]], nf) + np.arange(len(fi))] = fi
+    return out.tobytes()
 
 
 def _as_color_bytes(colors, n: int) -> bytes:

@@ -186,17 +186,23 @@ def encode_object(obj) -> str:
 
 
 def mesh_to_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """``(V, F)`` of a rhino3dm Mesh, its n-gons as polygon faces: through its archive when the fast reader knows
-    the layout (rhino3dm does not expose n-gons), else object by object (then n-gons come as their faces)."""
-    if _onmesh is not None:
-        arrays = _onmesh.read_mesh(mesh.Encode())
-        if arrays is not None:
-            return arrays
+    """``(V, F)`` of a rhino3dm Mesh, object by object (slow; rhino3dm does not expose n-gons: they come as their
+    faces). :func:`rhino_mesh_arrays` reads the mesh's archive instead."""
     pts = mesh.Vertices.ToPoint3dArray()
     V = np.array([(p.X, p.Y, p.Z) for p in pts], dtype=np.float64).reshape(-1, 3)
     faces = mesh.Faces
     F = np.array([faces[i] for i in range(len(faces))], dtype=np.int64).reshape(-1, 4)
     return V, F
+
+
+def rhino_mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, F)`` of a rhino3dm Mesh (read from a .3dm file, decoded by a client), its n-gons as polygon faces:
+    through its archive when the fast reader knows the layout, else :func:`mesh_to_arrays`."""
+    if _onmesh is not None:
+        arrays = _onmesh.read_mesh(mesh.Encode())
+        if arrays is not None:
+            return arrays
+    return mesh_to_arrays(mesh)
 
 
 def decode_mesh(data, limits: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -230,15 +236,15 @@ def decode_mesh(data, limits: dict | None = None) -> tuple[np.ndarray, np.ndarra
     return mesh_to_arrays(obj)
 
 
-def _rhino_faces(F: np.ndarray) -> tuple[np.ndarray, list]:
-    """Faces as Rhino holds them: quads and triangles ``(m, 4)``, each face of more than four corners as a triangle
-    fan, and ``[(vi, fi), ...]``: the n-gon that gives each such fan back as one polygon (its corners, its fan's
-    rows), as Rhino's own n-gons do."""
+def _rhino_faces(F: np.ndarray):
+    """Faces as Rhino holds them: quads and triangles ``(m, 4)`` in the faces' order, each face of more than four
+    corners as its triangle fan; and the n-gons that give each fan back as one polygon (its corners, its fan's
+    rows: ``_onmesh._Ngons``), as Rhino's own n-gons do (None without such faces)."""
     F = np.asarray(F, dtype=np.int64)
     if F.shape[1] == 4:
-        return F, []
+        return F, None
     if F.shape[1] == 3:
-        return np.concatenate([F, F[:, 2:3]], axis=1), []
+        return np.concatenate([F, F[:, 2:3]], axis=1), None
     sizes = face_sizes(F)
     rows = np.where(sizes <= 4, 1, sizes - 2)  # a face's rows: itself, or its fan, in the faces' order
     start = np.concatenate([[0], np.cumsum(rows)[:-1]])
@@ -246,24 +252,29 @@ def _rhino_faces(F: np.ndarray) -> tuple[np.ndarray, list]:
     small = sizes <= 4
     out[start[small]] = F[small, :4]  # a triangle's padding is its last vertex again
     out[start[sizes == 3], 3] = F[sizes == 3, 2]
-    ngons = []
     big = np.flatnonzero(~small)
-    if len(big):
-        T, J = triangulate(F[big])  # J: the row of F[big] of each triangle, fans in corner order
-        order = np.argsort(J, kind="stable")
-        T, J = T[order], J[order]
-        at = start[big][J] + (np.arange(len(J)) - np.searchsorted(J, J))  # the fan's k-th triangle at start + k
-        out[at, :3] = T
-        out[at, 3] = T[:, 2]
-        ngons = [(F[f, :n].copy(), np.arange(s0, s0 + n - 2)) for f, n, s0 in zip(big, sizes[big], start[big])]
-    return out, ngons
+    if not len(big):
+        return out, None
+    T, J = triangulate(F[big])  # J: the row of F[big] of each triangle, fans in corner order
+    order = np.argsort(J, kind="stable")
+    T, J = T[order], J[order]
+    at = start[big][J] + (np.arange(len(J)) - np.searchsorted(J, J))  # the fan's k-th triangle at start + k
+    out[at, :3] = T
+    out[at, 3] = T[:, 2]
+    nv = sizes[big]
+    vi = F[big][np.arange(F.shape[1])[None, :] < nv[:, None]]  # each polygon's corners, row by row
+    return out, _onmesh_ngons(nv, nv - 2, vi, at)
+
+
+def _onmesh_ngons(nv, nf, vi, fi):
+    return None if _onmesh is None else _onmesh._Ngons(nv, nf, vi, fi)
 
 
 def arrays_to_mesh(V, F, colors=None):
     """A rhino3dm Mesh with double-precision vertices; faces of more than four corners are n-gons of fans."""
     V = np.asarray(V, dtype=np.float64)
     F4, ngons = _rhino_faces(F)
-    if _onmesh is not None and ngons:  # rhino3dm cannot add n-gons: decode the archive written with them
+    if ngons is not None:  # rhino3dm cannot add n-gons: decode the archive written with them
         C = None if colors is None else np.clip(np.rint(np.asarray(colors)[:, :3]), 0, 255).astype(np.uint8)
         return rhino3dm.CommonObject.Decode(_onmesh.write_mesh(V, F4, C, ngons=ngons))
     mesh = rhino3dm.Mesh()
@@ -411,7 +422,7 @@ def encode_surface(value: NurbsSurface) -> str:
 def to_value(obj):
     """Python value of any supported rhino3dm object (used by the client for outputs and inputs)."""
     if isinstance(obj, rhino3dm.Mesh):
-        return mesh_to_arrays(obj)
+        return rhino_mesh_arrays(obj)
     if isinstance(obj, rhino3dm.Curve):
         return curve_to_value(obj)
     if isinstance(obj, (rhino3dm.Surface, rhino3dm.Brep)):
@@ -577,7 +588,7 @@ def read_3dm(path, layer: str | None = None, name: str | None = None,
     geo = obj.Geometry
     label = _object_label(model, obj)
     if isinstance(geo, rhino3dm.Mesh):
-        V, F = mesh_to_arrays(geo)
+        V, F = rhino_mesh_arrays(geo)
         return ModelMesh(V, F, (f"{path.name}: {label}, {len(V):,} vertices, {len(F):,} faces",))
     surface = decode_surface(geo.Encode())
     res = surface_mesh(surface, segments, segments)

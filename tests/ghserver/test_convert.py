@@ -42,7 +42,7 @@ def test_triangles_are_stored_as_abcc_and_polygons_come_back_whole():
     F5 = pad_faces([[0, 1, 2, 3, 4]])
     F4, ngons = convert._rhino_faces(F5)
     assert F4.tolist() == [[0, 1, 2, 2], [0, 2, 3, 3], [0, 3, 4, 4]]
-    assert [(v.tolist(), f.tolist()) for v, f in ngons] == [([0, 1, 2, 3, 4], [0, 1, 2])]
+    assert [x.tolist() for x in ngons] == [[5], [3], [0, 1, 2, 3, 4], [0, 1, 2]]  # counts, corners, fan rows
     _, F3 = convert.decode_mesh(convert.encode_mesh(V, F5))
     assert F3.tolist() == [[0, 1, 2, 3, 4]]
     T = np.array([[0, 1, 2]])
@@ -65,8 +65,9 @@ def test_polygon_faces_round_trip_exactly_in_their_order():
     # through rhino3dm (openNURBS reads the n-gons into its mesh and writes them again) and through a .3dm file
     mesh = rhino3dm.CommonObject.Decode(json.loads(convert.encode_mesh(V, F)))
     assert len(mesh.Faces) == 1 + 3 + 1 + 1 + 4 + 3  # Rhino's own faces: the fans
-    assert np.array_equal(convert.mesh_to_arrays(mesh)[1], F)
-    assert np.array_equal(convert.mesh_to_arrays(convert.arrays_to_mesh(V, F))[1], F)
+    assert np.array_equal(convert.rhino_mesh_arrays(mesh)[1], F)
+    assert np.array_equal(convert.rhino_mesh_arrays(convert.arrays_to_mesh(V, F))[1], F)
+    assert len(convert.mesh_to_arrays(mesh)[1]) == 13  # object by object: Rhino's faces
 
 
 def test_polygon_panels_are_n_gons_in_a_3dm_file(tmp_path):
@@ -93,8 +94,17 @@ def test_an_n_gon_that_is_not_a_simple_polygon_of_its_faces_leaves_them_as_they_
     assert np.array_equal(_with_ngons(V, Q, [(ring, around)]), Q)  # a ring with a hole: not an n-gon here
     assert np.array_equal(_with_ngons(V, Q, [(ring[:6] + [5], [0, 1, 3, 4])]), Q)  # not its faces' outline
     assert np.array_equal(_with_ngons(V, Q, [([0, 1, 5, 4], [0])]), Q)  # one face: itself
-    twice = [([0, 1, 2, 6, 5, 4], [0, 1]), ([1, 2, 3, 7, 6, 5], [1, 2])]  # face 1 in two n-gons: the second ignored
-    assert _with_ngons(V, Q, twice).tolist()[:2] == [[0, 1, 2, 6, 5, 4], [2, 3, 7, 6, 6, 6]]
+    twice = [([0, 1, 2, 6, 5, 4], [0, 1]), ([1, 2, 3, 7, 6, 5], [1, 2])]  # face 1 in two n-gons: neither is used
+    assert np.array_equal(_with_ngons(V, Q, twice), Q)
+    assert np.array_equal(_with_ngons(V, Q, [([0, 1, 2, 6, 5, 4], [0, 1, 1])]), Q)  # or twice in one
+    from ghserver._onmesh import _Ngons, _polygon_faces
+
+    def read(vi, fi):  # as read from an archive (the writer refuses indices out of range)
+        return _polygon_faces(Q, _Ngons(np.array([len(vi)]), np.array([len(fi)]), np.array(vi), np.array(fi)), len(V))
+
+    assert read([0, 1, 2, 6, 5, 4], [0, 1]).tolist()[0] == [0, 1, 2, 6, 5, 4]
+    assert np.array_equal(read([0, 1, 2, 6, 5, 99], [0, 1]), Q)  # a vertex out of range
+    assert np.array_equal(read([0, 1, 2, 6, 5, 4], [0, 99]), Q)  # a face out of range
     # an outline given the other way round is turned to run as its faces do
     F = _with_ngons(V, Q, [([4, 5, 6, 2, 1, 0], [0, 1])])
     assert F[0].tolist() == [0, 1, 2, 6, 5, 4]
