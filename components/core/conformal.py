@@ -536,6 +536,8 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
     return UV, {"weights": kind, "corners": corners, "warnings": warnings}
 
 
+#: how the refusal of a mesh with several boundary loops or a handle starts (:func:`check_disk`)
+NOT_A_DISK_REFUSAL = "not a topological disk"
 #: what to do about a mesh that is not a disk, for the disk and square maps (LSCM takes several loops)
 DISK_ADVICE = "a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles several boundary loops"
 
@@ -578,7 +580,7 @@ def check_disk(V, T, loops, advice: str = DISK_ADVICE):
         genus = (2 - chi - len(loops)) // 2
         raise MeshError(
             "mesh",
-            f"not a topological disk ({len(loops)} boundary loops, genus {genus}, Euler characteristic {chi}): "
+            f"{NOT_A_DISK_REFUSAL} ({len(loops)} boundary loops, genus {genus}, Euler characteristic {chi}): "
             + advice,
         )
 

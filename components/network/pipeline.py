@@ -20,7 +20,8 @@ size. With the default ``boundary_cells="extend"`` a result that is not healthy 
 1. the cells are healed again with a looser bulge bound (:data:`HEAL_TRIES`: fewer, larger cells) and optimized;
 2. if no network candidate gives healthy panels, or the network cannot be built (a surface umbilic or flat almost
    everywhere, such as a sphere patch, where every direction is principal; a network folding at every panel size
-   tried), the candidate is a quad mesh of the fields stage on the principal directions
+   tried; a surface with holes or handles, whose lines the rebuild cannot intersect in one plane map of a disk),
+   the candidate is a quad mesh of the fields stage on the principal directions
    (:func:`components.fields.candidate.candidate_mesh`, ``field="principal"``, repaired), optimized the same way;
 
 the first healthy result is returned (else the one with the fewest unhealthy faces), and a warning says which
@@ -47,6 +48,7 @@ from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_solve
 from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
+from components.core.conformal import NOT_A_DISK_REFUSAL
 from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
 from components.core.measures import max_quad_planarity
@@ -336,7 +338,8 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     Raises
     ------
     MeshError
-        Malformed mesh, no boundary or not a topological disk.
+        Malformed mesh or no boundary; with ``boundary_cells`` "trim" or "keep", a surface that is not a
+        topological disk (holes, handles; with "extend" it falls back to the fields candidate).
     InputError
         Bad numbers or options; a design surface that crosses itself; with ``boundary_cells`` "trim" or "keep", a
         surface umbilic almost everywhere or a network that folds at every panel size tried (with "extend" those
@@ -384,11 +387,16 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
             if fb is not None:
                 tries.append((fb, _finished(V, T, fb, optimize, closeness_weight, time_budget - t["optimize"], t),
                               None))
-    except InputError as exc:  # umbilic almost everywhere (every direction is principal), or folding everywhere
-        if not (extend and exc.input_name == "mesh" and exc.detail.startswith((UMBILIC_REFUSAL, FOLD_REFUSAL))):
+    except InputError as exc:  # umbilic almost everywhere (every direction is principal), folding everywhere, or
+        # holes or handles (the rebuild intersects the lines in one plane map of a disk; the fields stage cuts)
+        if not (extend and exc.input_name == "mesh"
+                and exc.detail.startswith((UMBILIC_REFUSAL, FOLD_REFUSAL, NOT_A_DISK_REFUSAL))):
             raise
         V, T, net = Vn, (F0 if F0.shape[1] == 3 else triangulate(F0)[0]), None
-        fb = _fields_candidate(V, T, hn, exc.detail)
+        why = exc.detail
+        if why.startswith(NOT_A_DISK_REFUSAL):
+            why = why.split(":")[0] + "; the curvature-network rebuild needs one boundary loop and no handle"
+        fb = _fields_candidate(V, T, hn, why)
         if fb is None:
             raise
         tries.append((fb, _finished(V, T, fb, optimize, closeness_weight, time_budget, t), None))

@@ -131,12 +131,15 @@ def test_bad_inputs():
         pq_from_curvature_network((Vo, To), panel_size=0.5)
 
 
-def test_non_disk_is_refused():
-    # an annulus of a cone (anisotropic everywhere): the plane map needs a disk
+def test_a_non_disk_gets_the_fields_candidate_or_is_refused_when_trimmed():
+    # an annulus of a cone (anisotropic everywhere): the rebuild's plane map needs a disk
     ang, rad = np.meshgrid(np.linspace(0, 2 * np.pi, 33)[:-1], np.linspace(1, 2, 6), indexing="ij")
     V = np.stack([rad * np.cos(ang), rad * np.sin(ang), 0.5 * rad], -1).reshape(-1, 3)
     idx = np.arange(len(V)).reshape(32, 6)
     Q = np.array([[idx[i, j], idx[(i + 1) % 32, j], idx[(i + 1) % 32, j + 1], idx[i, j + 1]]
                   for i in range(32) for j in range(5)])
+    res = curvature_pipeline((V, Q), 0.3, tracer=trace_evenly)
+    assert any(w.startswith("not a topological disk (2 boundary loops") and "fell back" in w for w in res.warnings)
+    assert res.healthy == (res.violations == [])
     with pytest.raises(MeshError, match="disk"):
-        curvature_pipeline((V, Q), 0.3, tracer=trace_evenly)
+        curvature_pipeline((V, Q), 0.3, tracer=trace_evenly, boundary_cells="trim")

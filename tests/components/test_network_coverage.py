@@ -275,3 +275,28 @@ def test_the_same_result_in_other_units_and_places():
     b = pq_from_curvature_network((V * 1000.0 + 5e6, T), panel_size=h * 1000.0)
     assert len(a.optimized[1]) == len(b.optimized[1]) and a.healthy and b.healthy
     np.testing.assert_allclose((b.optimized[0] - 5e6) / 1000.0, a.optimized[0], atol=1e-6 * 8 * h)
+
+
+def _roof_with_an_opening(n=24):
+    """A hypar roof over a square with a square opening in its middle (two boundary loops)."""
+    V, Q = quad_grid(n, n, 4.0, 4.0, height=lambda x, y: 0.25 * (x - 2) * (y - 2) + 0.1 * np.sin(2 * (y - 2)))
+    i, j = np.divmod(np.arange(len(Q)), n)
+    hole = (np.abs(i - (n - 1) / 2) < n / 8) & (np.abs(j - (n - 1) / 2) < n / 8)
+    T = triangulate(Q[~hole])[0]
+    return V, T, (1.5, 2.5)
+
+
+def test_a_surface_with_an_opening_gets_the_fields_candidate_on_its_principal_directions():
+    V, T, (lo, hi) = _roof_with_an_opening()
+    res = pq_from_curvature_network((V, T), panel_size=0.4)
+    _independent(res, V, T)
+    assert res.max_planarity <= 1e-4
+    assert any("fell back to a quad candidate of the fields stage" in w and "2 boundary loops" in w
+               for w in res.warnings), res.warnings
+    X, F = res.optimized
+    C = np.array([X[f[:len(set(f))]].mean(axis=0) for f in F])
+    inside = (C[:, 0] > lo + 0.1) & (C[:, 0] < hi - 0.1) & (C[:, 1] > lo + 0.1) & (C[:, 1] < hi - 0.1)
+    assert not inside.any()  # no panel over the opening
+    # the rebuild alone, and the strategy with trimmed cells, say what to do instead
+    with pytest.raises(InputError, match="fill its holes or split it"):
+        pq_from_curvature_network((V, T), panel_size=0.4, boundary_cells="trim")
