@@ -199,6 +199,38 @@ def check_points(P, name: str, *, allow_empty: bool = True) -> np.ndarray:
     return np.ascontiguousarray(A)
 
 
+#: vertices closer than this × the bounding-box diagonal count as one position when an unwelded mesh is diagnosed
+#: (the STL reader's weld, components.core.mesh.STL_WELD)
+WELD_FRACTION = 1e-6
+
+
+def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshError:
+    """The error for a mesh of ``pieces`` connected pieces where one is needed: when its pieces share vertex
+    positions (an unwelded mesh: every face or patch with its own copies of its corners, as an STL or a mesh joined
+    without welding has), it says to weld; else ``advice`` (e.g. "parametrize them one at a time").
+
+    >>> from components.core.mesh import quad_grid, triangulate
+    >>> V, Q = quad_grid(2, 1)
+    >>> T = triangulate(Q)[0]
+    >>> print(pieces_error(V[T].reshape(-1, 3), np.arange(12).reshape(4, 3), 4, "map each one"))
+    mesh: the mesh has 4 connected pieces that share 6 vertex positions: it is not welded; weld it (Rhino: _Weld, or _Join then _Weld) and send it again
+    >>> print(pieces_error(V, T[:1], 2, "map each one"))
+    mesh: the mesh has 2 connected pieces; map each one
+    """
+    V = np.asarray(V, dtype=np.float64)
+    used = np.unique(np.asarray(F, dtype=np.int64).ravel())
+    P = V[used[used < len(V)]]
+    shared = 0
+    if len(P) > 1:
+        tol = WELD_FRACTION * max(float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))), 1e-300)
+        cells = np.round((P - P.min(axis=0)) / tol)  # relative to the mesh's own size: the same in mm, m, at 5e6
+        shared = len(P) - len(np.unique(cells, axis=0))
+    if shared:
+        return MeshError(name, f"the mesh has {pieces} connected pieces that share {shared} vertex positions: it is "
+                               "not welded; weld it (Rhino: _Weld, or _Join then _Weld) and send it again")
+    return MeshError(name, f"the mesh has {pieces} connected pieces; {advice}")
+
+
 def check_mesh(mesh, name: str = "mesh", **kwargs) -> tuple[np.ndarray, np.ndarray]:
     """A ``Mesh`` input: a ``(V, F)`` pair, checked by :func:`validate_mesh` (keyword options passed on).
 

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from components.core.checks import check_choice, check_mesh, validate_mesh
+from components.core.checks import check_choice, check_mesh, pieces_error, validate_mesh
 from components.core.errors import InputError, MeshError
 from components.core.measures import triangle_angles
 from components.core.memo import ContentCache, digest
@@ -288,7 +288,7 @@ def lscm(V: np.ndarray, T: np.ndarray, pinned=None, pinned_uv=None, method: str 
     used = _used_vertices(T, n)
     _, labels = _components(T, n)
     if len(np.unique(labels[used])) > 1:
-        raise MeshError("mesh", f"the mesh has {len(np.unique(labels[used]))} connected components; map each one")
+        raise pieces_error(V, T, len(np.unique(labels[used])), "map each one")
     Q = _lscm_matrix(V, T)
     if method == "spectral":
         return _lscm_spectral(V, T, Q, loops, used)
@@ -573,7 +573,7 @@ def check_disk(V, T, loops, advice: str = DISK_ADVICE):
     _, labels = _components(T, n)
     comps = len(np.unique(labels[used]))
     if comps > 1:
-        raise MeshError("mesh", f"the mesh has {comps} connected components; map each one")
+        raise pieces_error(V, T, comps, "map each one")
     E = len(edge_topology(T).E)
     chi = int(used.sum()) - E + len(T)
     if len(loops) != 1 or chi != 1:

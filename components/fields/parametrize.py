@@ -50,7 +50,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, dijk
 from scipy.sparse.linalg import splu
 
 from components.core.blas import single_blas_thread
-from components.core.checks import check_choice, check_mesh, check_number
+from components.core.checks import check_choice, check_mesh, check_number, pieces_error
 from components.core.memo import ContentCache, digest
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
@@ -960,7 +960,7 @@ def _disk_boundary_loops(V: np.ndarray, T: np.ndarray, E: np.ndarray | None = No
     ncomp = connected_components(sp.csr_matrix((np.ones(3 * m), (T.ravel(), np.roll(T, -1, 1).ravel())),
                                                shape=(n, n)), directed=False)[0] - (n - nused)
     if ncomp != 1:
-        raise MeshError("mesh", f"the surface has {ncomp} connected pieces; parametrize them one at a time")
+        raise pieces_error(V, T, ncomp, "parametrize them one at a time")
     genus2 = 2 - len(loops) - chi
     if genus2 != 0:
         raise MeshError("mesh", f"the surface has handles (genus {genus2 / 2:g}); only disks with holes are supported")

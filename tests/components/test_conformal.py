@@ -156,7 +156,7 @@ def test_lscm_bad_inputs():
     with pytest.raises(MeshError, match="^mesh: vertex 0 has a NaN"):
         lscm(np.r_[[[np.nan] * 3], V[1:]], T)
     two = np.r_[V, V + [10.0, 0, 0]]
-    with pytest.raises(MeshError, match="2 connected components"):
+    with pytest.raises(MeshError, match="2 connected pieces; map each one"):
         lscm(two, np.r_[T, T + len(V)])
 
 
@@ -280,3 +280,14 @@ def test_conformal_map_component_errors():
         conformal_map((np.zeros((3, 3)), np.array([[0, 1, 5]])))
     with pytest.raises(MeshError, match="^mesh: must be a \\(V, F\\) pair"):
         conformal_map(np.zeros((3, 3)))
+
+
+def test_an_unwelded_mesh_is_told_to_weld_at_every_scale():
+    # every triangle with its own corners (an STL, a mesh joined without welding): not "map each piece"
+    V, Q = quad_grid(4, 4, 4.0, 4.0, height=lambda x, y: 0.1 * x * y)
+    T = triangulate(Q)[0]
+    soup, tris = V[T].reshape(-1, 3), np.arange(3 * len(T)).reshape(-1, 3)
+    for scale, shift in ((1.0, 0.0), (1000.0, 0.0), (1.0, 5e6)):
+        with pytest.raises(MeshError, match=r"^mesh: the mesh has 32 connected pieces that share \d+ vertex "
+                                            r"positions: it is not welded; weld it"):
+            lscm(soup * scale + shift, tris)
