@@ -39,6 +39,8 @@ direction field", ACM Trans. Graph. (SIGGRAPH Asia) 30(6), 2011 (non-orthogonal 
 """
 from __future__ import annotations
 
+import math
+
 import logging
 import time
 from functools import partial
@@ -124,7 +126,8 @@ def check_target_fits(V: np.ndarray, T: np.ndarray, target: float, name: str = "
         raise InputError(name, f"{target:g} is larger than the surface ({diag:g} across): no quad fits")
     area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
     if area / target**2 > 2e6:
-        raise InputError(name, f"{target:g} would give about {area / target**2:.3g} quads (limit 2e6)")
+        raise InputError(name, f"{target:g} would give about {area / target**2:.3g} quads (limit 2e6); use at least "
+                               f"{math.sqrt(area / 2e6):.3g}")
 
 
 # ----------------------------------------------------------------------------------------------

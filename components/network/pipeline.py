@@ -56,6 +56,7 @@ from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corn
                                   triangulate)
 from components.core.types import Curves, Lines, Mesh, Texts
 from components.fields.candidate import candidate_mesh
+from components.fields.parametrize import check_target_fits
 from components.metrics.health import DEFECT_BITS, face_health
 from components.network.healing import manifold_cells
 from components.network.rebuild import BOUNDARY_CELLS, MAX_BULGE, rebuild_from_network
@@ -176,7 +177,7 @@ def _candidate(Vn, Fn, hn, h, umbilic_threshold, boundary_cells, tracer, warning
         t0 = time.perf_counter()
         if factor not in networks:
             networks[factor] = network_for_mesh((Vn, Fn), hn * factor, umbilic_threshold, tracer=tracer,
-                                                umbilic="fill")
+                                                umbilic="fill", check_fit=False)  # checked as given
         V, T, net = networks[factor]
         t1 = time.perf_counter()
         rb = rebuild_from_network(V, T, net.lines_1, net.lines_2, hn * factor, boundary_cells=boundary_cells,
@@ -351,6 +352,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     check_choice(boundary_cells, "boundary_cells", BOUNDARY_CELLS)
     V0, F0 = check_mesh(mesh, "mesh")
     h = check_number(panel_size, "panel_size", 0, above=True)
+    check_target_fits(V0, F0 if F0.shape[1] == 3 else triangulate(F0)[0], h, "panel_size")  # in the units given
     fr = _frame(V0)
     warnings: list[str] = []
     hn = max(round(h / fr.scale / SNAP), 1) * SNAP  # on the same grid: the same panel size in every unit

@@ -54,6 +54,7 @@ from components.core.mesh import edge_topology, triangulate
 from components.core.proximity import TriangleIndex
 from components.core.types import Curves, Integers, Mesh
 from components.fields.frames import dual_graph, face_frames, from_complex, to_complex
+from components.fields.parametrize import check_target_fits
 from components.fields.streamlines import evenly_spaced_streamlines
 
 log = logging.getLogger(__name__)
@@ -356,14 +357,18 @@ def principal_network(V: np.ndarray, T: np.ndarray, panel_size: float, umbilic_t
 
 
 def network_for_mesh(mesh, panel_size, umbilic_threshold: float = 0.05, radius: int = 2, tracer=None,
-                     umbilic: str = "skip"):
-    """Validate a ``(V, F)`` surface (triangulated) and trace its network: ``(V, T, Network)``."""
+                     umbilic: str = "skip", check_fit: bool = True):
+    """Validate a ``(V, F)`` surface (triangulated) and trace its network: ``(V, T, Network)``. ``check_fit``: refuse
+    a panel size larger than the surface or giving more than about two million panels, naming ``panel_size`` (a
+    caller working in other units checks the size as given first)."""
     V, F = check_mesh(mesh, "mesh")
     check_number(panel_size, "panel_size", 0, above=True)
     t = check_number(umbilic_threshold, "umbilic_threshold", 0)
     if t >= 1:
         raise InputError("umbilic_threshold", f"must be below 1, got {umbilic_threshold!r}")
     T = triangulate(F)[0] if F.shape[1] != 3 else F
+    if check_fit:
+        check_target_fits(V, T, float(panel_size), "panel_size")
     if not cached_boundary_loops(T):
         raise MeshError("mesh", "the surface is closed (no boundary): the curvature network is rebuilt in a disk "
                                 "parametrization, so cut the surface open first")

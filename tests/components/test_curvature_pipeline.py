@@ -9,7 +9,9 @@ from components.conical.cones import face_offset, face_planes
 from components.network.pipeline import curvature_pipeline, pq_from_curvature_network
 from components.core.checks import validate_mesh
 from components.core.errors import InputError, MeshError
-from components.core.mesh import boundary_vertex_mask, edge_topology, face_corners, read_mesh
+from components.core.mesh import boundary_vertex_mask, edge_topology, face_corners, quad_grid, read_mesh
+from components.network.rebuild import quad_rebuild
+from components.network.tracing import curvature_network
 from components.surfaces.samples import sample_mesh
 from tests.components.test_curvature_network import trace_evenly
 from tests.conftest import data_file
@@ -143,3 +145,19 @@ def test_a_non_disk_gets_the_fields_candidate_or_is_refused_when_trimmed():
     assert res.healthy == (res.violations == [])
     with pytest.raises(MeshError, match="disk"):
         curvature_pipeline((V, Q), 0.3, tracer=trace_evenly, boundary_cells="trim")
+
+
+@pytest.mark.parametrize("scale", [1.0, 1000.0])
+def test_a_panel_size_that_does_not_fit_is_refused_by_name_in_the_units_given(scale):
+    V, Q = quad_grid(6, 6, 3.0, 3.0, height=lambda x, y: 0.2 * x * y)
+    mesh = (V * scale, Q)
+    across = np.linalg.norm(V.max(axis=0) - V.min(axis=0)) * scale
+    with pytest.raises(InputError, match=rf"^panel_size: {50 * scale:g} is larger than the surface \({across:g} across"):
+        curvature_pipeline(mesh, 50.0 * scale)
+    with pytest.raises(InputError, match=rf"^panel_size: {1e-4 * scale:g} would give about 1e\+09 quads \(limit 2e6\); use at least "
+                                        rf"{0.00224 * scale:.3g}$"):
+        curvature_pipeline(mesh, 1e-4 * scale)
+    with pytest.raises(InputError, match=r"^panel_size: .* would give about"):
+        curvature_network(mesh, 1e-4 * scale)
+    with pytest.raises(InputError, match=r"^panel_size: .* is larger than the surface"):
+        quad_rebuild(mesh, 50.0 * scale)
