@@ -421,6 +421,10 @@ def _read_mapping_tag(r: _Reader) -> None:
     r.end()
 
 
+#: n-gons with more corners are read as their faces (see :func:`_polygon_faces`)
+MAX_NGON_CORNERS = 32
+
+
 def _unique_rows(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The distinct rows of an ``(r, 2)`` integer array (sorted) and how often each occurs (``np.unique(axis=0)``,
     without its slow sort of row records)."""
@@ -478,8 +482,9 @@ def _polygon_faces(F: np.ndarray, ngons: _Ngons | None, vcount: int) -> np.ndarr
     faces run), at the place of its first face, padded by repeating each face's last vertex to the largest corner
     count.
 
-    An n-gon is used only when it is a simple polygon over its faces: every index in range, at least three
-    distinct boundary vertices, faces in no other n-gon, and the edges its faces do not share with each other are
+    An n-gon is used only when it is a simple polygon over its faces: every index in range, three to
+    :data:`MAX_NGON_CORNERS` distinct boundary vertices (a larger one, a whole flat region rather than a panel,
+    would widen every row of ``F``), faces in no other n-gon, and the edges its faces do not share with each other are
     exactly the consecutive pairs of its boundary (no hole, no stray face, no edge of three faces); others are
     ignored (their faces kept), as openNURBS skips a corrupt n-gon. One-face n-gons (Rhino may make one for every
     face) change nothing.
@@ -490,7 +495,7 @@ def _polygon_faces(F: np.ndarray, ngons: _Ngons | None, vcount: int) -> np.ndarr
     nv, nf, vi, fi = ngons
     g = len(nv)
     gv, gf = np.repeat(np.arange(g), nv), np.repeat(np.arange(g), nf)
-    ok = (nv >= 3) & (nf >= 2)  # one face: the face itself
+    ok = (nv >= 3) & (nv <= MAX_NGON_CORNERS) & (nf >= 2)  # one face: the face itself
     ok &= np.bincount(gv, weights=vi >= vcount, minlength=g) == 0
     ok &= np.bincount(gf, weights=fi >= m, minlength=g) == 0
     vkey = gv * max(vcount, 1) + np.minimum(vi, vcount)  # distinct vertices within an n-gon

@@ -110,6 +110,17 @@ def test_an_n_gon_that_is_not_a_simple_polygon_of_its_faces_leaves_them_as_they_
     assert F[0].tolist() == [0, 1, 2, 6, 5, 4]
 
 
+def test_an_n_gon_of_more_than_32_corners_is_read_as_its_faces():
+    # a flat region of a hundred faces as one n-gon would widen every face row to its corner count
+    V, Q = quad_grid(10, 10, 10.0, 10.0)
+    ring = (list(range(11)) + [10 + 11 * i for i in range(1, 10)] + list(range(120, 109, -1))
+            + [11 * i for i in range(9, 0, -1)])
+    assert len(ring) == 40
+    assert np.array_equal(_with_ngons(V, Q, [(ring, range(100))]), Q)
+    small = [0, 1, 2, 13, 12, 11]  # beside it, a panel of two faces is still one face
+    assert _with_ngons(V, Q, [(small, [0, 1])]).tolist()[0] == small
+
+
 def test_real_rhinocommon_mesh_decodes():
     blob = shared_json("rc_mesh_v70.json")
     assert blob["archive3dm"] == 70
