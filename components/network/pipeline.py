@@ -27,7 +27,9 @@ size. With the default ``boundary_cells="extend"`` a result that is not healthy 
 the first healthy result is returned (else the one with the fewest unhealthy faces), and a warning says which
 candidate it is and why. A surface that crosses itself is refused with a typed
 :class:`~components.core.errors.InputError` (every panelling of it folds). ``is_conical`` is claimed only when the
-tolerance is reached **and** the panels are healthy; anything else comes with a warning naming the counts.
+tolerance is reached, every vertex with four or more faces is conical (``conical/analysis``'s verdict; the angle
+criterion the optimization meets constrains the valence-4 vertices only, so a vertex with five or more faces off
+its cone is named in a warning) **and** the panels are healthy; anything else comes with a warning naming the counts.
 
 Units and placement do not matter: the surface is centred on its bounding box and scaled to unit size before anything
 is computed (and every output is mapped back), so a model in millimetres, metres or placed at 5e6 gives the same
@@ -540,7 +542,9 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     relative_closeness : float
         Mean closeness divided by the mean edge length.
     is_conical : bool
-        Planarity and angle criterion within 1e-4, and the panels healthy.
+        Planarity and angle criterion within 1e-4, the face normals on a cone at every vertex with four or more
+        faces (the verdict of ``conical/analysis``: the criterion constrains only the valence-4 vertices, and a
+        warning names the others that are off their cones), and the panels healthy.
     offset_mesh : Mesh
         The face offset at ``offset`` (the optimized mesh itself when ``offset`` is 0).
     max_offset_error : float
