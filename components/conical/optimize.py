@@ -201,7 +201,8 @@ def conical_solve(V, F, reference=None, *, closeness_weight: float = 1.0, fairne
         warnings.append(f"conical optimization did not reach {tol:g} ({res.stop_reason}): max planarity "
                         f"{res.max_planarity:.2e}, max angle criterion {max_crit:.2e} rad")
     elif len(off_cone):
-        warnings.append(f"not conical at {len(off_cone)} vertices with five or more faces (face normals up to "
+        warnings.append(f"not conical at {len(off_cone)} vert{'ex' if len(off_cone) == 1 else 'ices'} with five or "
+                        f"more faces (face normals up to "
                         f"{float(chk.deviation[off_cone].max()):.2e} rad off their best cone; the angle criterion "
                         "constrains the valence-4 vertices only): node axes and face offsets are exact at the others")
     elif polish and (res.max_planarity > 1e-8 or max_crit > 1e-7):

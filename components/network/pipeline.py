@@ -586,8 +586,10 @@ def pq_from_curvature_network(mesh: Mesh, panel_size: float, optimize: bool = Tr
     >>> from components.surfaces.samples import sample_mesh
     >>> V, T, _ = sample_mesh("saddle", 40)
     >>> res = pq_from_curvature_network((V, T), panel_size=2.0, offset=0.2)
-    >>> res.is_conical
-    True
+    >>> res.healthy, bool(res.max_criterion < 1e-4), res.is_conical  # every valence-4 vertex conical, not all
+    (True, True, False)
+    >>> [w[:47] for w in res.warnings if w.startswith("not conical")]
+    ['not conical at 1 vertex with five or more faces']
     """
     return curvature_pipeline(mesh, panel_size, optimize=bool(optimize), offset=offset,
                               umbilic_threshold=umbilic_threshold, boundary_cells=boundary_cells,
