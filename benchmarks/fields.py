@@ -182,6 +182,14 @@ keeps the nominal panel count: the field 12.1-13.6 → 6.2-6.8 s and every seed 
 planarization 10.9-17.0 → 8.4-31.2 s (the coarse field is less conjugate on the mesh): 24.0-51.2 s, mean 34.4, seed
 6 not converged at the 30 s budget (1.6e-4). Not adopted: the planarization, not the field, bounds the 200k row.
 
+Session 20 (same machine): 20k 3.34 s (field 1.1, param 0.2, extract 0.7, planarize 1.2; the same result), 200k
+34.3 s (field 12.2, param 3.5, extract 6.0, planarize 12.2), **peak 1.10 GB** instead of 1.54: the direction field's
+SuperLU factors made on the helper thread had leaked (SciPy frees a factor only in the thread that allocated it,
+scipy #15921; components.core.parallel.ThreadOwned now drops it there): the 200k run's peak address space 6.06 →
+3.2-3.5 GB, and a solver process no longer grows from request to request. Tried: the field's later factorizations
+on the first one's minimum-degree order (1.73 → 1.51 s each at 200k, not bit-identical: other candidates). Not
+adopted.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
