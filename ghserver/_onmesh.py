@@ -498,9 +498,9 @@ def _polygon_faces(F: np.ndarray, ngons: _Ngons | None, vcount: int) -> np.ndarr
     ok = (nv >= 3) & (nv <= MAX_NGON_CORNERS) & (nf >= 2)  # one face: the face itself
     ok &= np.bincount(gv, weights=vi >= vcount, minlength=g) == 0
     ok &= np.bincount(gf, weights=fi >= m, minlength=g) == 0
-    vkey = gv * max(vcount, 1) + np.minimum(vi, vcount)  # distinct vertices within an n-gon
+    vkey = gv * (vcount + 1) + np.minimum(vi, vcount)  # distinct vertices within an n-gon (out of range: vcount)
     s = np.sort(vkey)
-    ok[s[1:][s[1:] == s[:-1]] // max(vcount, 1)] = False
+    ok[s[1:][s[1:] == s[:-1]] // (vcount + 1)] = False
     # a face in two n-gons (or twice in one): neither is used
     cf = ok[gf]
     faces, seen = np.unique(fi[cf], return_counts=True)

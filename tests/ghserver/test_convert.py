@@ -105,6 +105,10 @@ def test_an_n_gon_that_is_not_a_simple_polygon_of_its_faces_leaves_them_as_they_
     assert read([0, 1, 2, 6, 5, 4], [0, 1]).tolist()[0] == [0, 1, 2, 6, 5, 4]
     assert np.array_equal(read([0, 1, 2, 6, 5, 99], [0, 1]), Q)  # a vertex out of range
     assert np.array_equal(read([0, 1, 2, 6, 5, 4], [0, 99]), Q)  # a face out of range
+    # a corrupt n-gon beside a good one leaves the good one whole
+    two = _Ngons(np.array([6, 6]), np.array([2, 2]), np.array([8, 9, 10, 14, 13, 99, 0, 1, 2, 6, 5, 4]),
+                 np.array([6, 7, 0, 1]))
+    assert _polygon_faces(Q, two, len(V)).tolist()[0] == [0, 1, 2, 6, 5, 4]
     # an outline given the other way round is turned to run as its faces do
     F = _with_ngons(V, Q, [([4, 5, 6, 2, 1, 0], [0, 1])])
     assert F[0].tolist() == [0, 1, 2, 6, 5, 4]
