@@ -631,3 +631,22 @@ def test_hops_post_solve_request_mesh():
     assert item["type"] == "Rhino.Geometry.Mesh"
     obj = json.loads(item["data"])
     assert_same(read_mesh(obj), decode(obj))
+
+
+def test_every_bit_flip_and_cut_of_a_polygon_mesh_is_rejected():
+    """The n-gon chunk is checked like the rest (CRC, lengths): a pentagon's archive with any one bit flipped or cut
+    short is refused (the caller falls back to rhino3dm), never read as something else, never an exception."""
+    from ghserver.convert import _rhino_faces
+
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0.5, 1.5, 0], [-0.5, 1, 0]])
+    F4, ngons = _rhino_faces(np.array([[0, 1, 2, 3, 4]]))
+    obj = write_mesh(V, F4, ngons=ngons)
+    assert read_mesh(obj)[1].tolist() == [[0, 1, 2, 3, 4]]
+    data = bytearray(payload(obj))
+    for i in range(len(data)):
+        for bit in range(8):
+            data[i] ^= 1 << bit
+            assert read_mesh(with_payload(obj, bytes(data))) is None, (i, bit)
+            data[i] ^= 1 << bit
+    for k in range(len(data)):
+        assert read_mesh(with_payload(obj, bytes(data[:k]))) is None
