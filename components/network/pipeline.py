@@ -270,8 +270,15 @@ def _finished(V, T, cand: _Cand, optimize, closeness_weight, budget, t) -> _Outc
         return _as_is(V, T, cand)
     t2 = time.perf_counter()
     # judged once below at HEALTH (conical_mesh would judge it at GUARD too)
-    opt = conical_solve(cand.V, cand.F, (V, T), closeness_weight=closeness_weight, time_budget=max(budget, 1e-3),
-                        tolerance=TOLERANCE, mesh_name="candidate", **GUARD)
+    try:
+        opt = conical_solve(cand.V, cand.F, (V, T), closeness_weight=closeness_weight, time_budget=max(budget, 1e-3),
+                            tolerance=TOLERANCE, mesh_name="candidate", **GUARD)
+    except MeshError as exc:  # the solver refused our own candidate (e.g. two boundary fans pinched at a vertex)
+        if exc.input_name != "candidate":
+            raise
+        t["optimize"] += time.perf_counter() - t2
+        return _as_is(V, T, cand, [f"the conical optimization refused the candidate ({exc.detail}); it is returned "
+                                   "unoptimized"])
     t["optimize"] += time.perf_counter() - t2
     warnings = list(opt.warnings)
     out = _judged(V, T, opt.V, opt.F, opt.max_planarity, opt.max_criterion, opt.max_cone_deviation,

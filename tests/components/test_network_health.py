@@ -234,3 +234,20 @@ def test_offset_is_exact_at_regular_vertices():
     assert off.face_error[~bad_face].max() <= 1e-6 * d
     if res.max_offset_error > 1e-6 * d:
         assert any(w.startswith("face offset") and "five or more faces" in w for w in res.warnings)
+
+
+def test_a_candidate_the_optimizer_refuses_is_returned_judged_not_raised():
+    """A candidate with two boundary fans pinched at a vertex (as the fields fallback gave on libigl's camelhead at a
+    tenth of its size) made the optimizer raise "candidate: vertex 5 is non-manifold" out of the strategy: an error
+    about our own mesh, not the user's. Now that try is the candidate as it is, judged (not healthy), and says so."""
+    from components.network.pipeline import _Cand, _finished
+
+    from components.core.mesh import quad_grid
+
+    V, Q = quad_grid(4, 4, 4.0, 4.0)
+    T = triangulate(Q)[0]
+    pinched = np.array([[0, 1, 6, 5], [6, 7, 12, 11]])  # two quads touching at vertex 6 only
+    cand = _Cand(V.copy(), pinched, 1.0, [])
+    out = _finished(V, T, cand, True, 1.0, 5.0, {"optimize": 0.0})
+    assert not out.healthy and not out.is_conical
+    assert any(w.startswith("the conical optimization refused the candidate") for w in out.warnings), out.warnings
