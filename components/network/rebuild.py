@@ -74,8 +74,8 @@ __all__ = [
 PLANE_MAPS = ("lscm", "disk")
 #: what to do with a surface the rebuild cannot take (its lines are intersected in one plane map of a disk)
 NOT_A_DISK = ("the curvature-network rebuild needs a surface with exactly one boundary loop and no handle; fill its "
-              "holes or split it into disk-like patches, or use fields/pq_from_conjugate_field (the conjugate "
-              "strategy), which takes surfaces with holes")
+              "holes or split it into disk-like patches, or, for holes, use fields/pq_from_conjugate_field (the "
+              "conjugate strategy), which takes them (not handles)")
 BOUNDARY_CELLS = ("extend", "trim", "keep")
 MAX_BULGE = 0.12  # × median edge: healed cells under which the surface bulges more are split (coverage: 0.25)
 
