@@ -14,7 +14,8 @@ import numpy as np
 
 from components.core.errors import InputError, MeshError
 from components.core.memo import ContentCache, digest
-from components.core.mesh import bounding_box_diagonal, edge_topology, face_normals, face_sizes, halfedges
+from components.core.mesh import (STL_WELD, bounding_box_diagonal, edge_topology, face_normals, face_sizes, halfedges,
+                                  weld_labels)
 
 __all__ = ["check_int", "check_number", "check_choice", "check_points", "check_mesh", "validate_mesh",
            "MESH_KINDS"]
@@ -199,15 +200,12 @@ def check_points(P, name: str, *, allow_empty: bool = True) -> np.ndarray:
     return np.ascontiguousarray(A)
 
 
-#: vertices closer than this × the bounding-box diagonal count as one position when an unwelded mesh is diagnosed
-#: (the STL reader's weld, components.core.mesh.STL_WELD)
-WELD_FRACTION = 1e-6
-
-
 def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshError:
     """The error for a mesh of ``pieces`` connected pieces where one is needed: when its pieces share vertex
     positions (an unwelded mesh: every face or patch with its own copies of its corners, as an STL or a mesh joined
-    without welding has), it says to weld; else ``advice`` (e.g. "parametrize them one at a time").
+    without welding has; positions within :data:`~components.core.mesh.STL_WELD` of the mesh's size, as
+    :func:`~components.core.mesh.read_stl` welds), it says to weld; else ``advice`` (e.g. "parametrize them one at a
+    time").
 
     >>> from components.core.mesh import quad_grid, triangulate
     >>> V, Q = quad_grid(2, 1)
@@ -221,10 +219,10 @@ def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshErro
     used = np.unique(np.asarray(F, dtype=np.int64).ravel())
     P = V[used[used < len(V)]]
     shared = 0
-    if len(P) > 1:
-        tol = WELD_FRACTION * max(float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))), 1e-300)
-        cells = np.round((P - P.min(axis=0)) / tol)  # relative to the mesh's own size: the same in mm, m, at 5e6
-        shared = len(P) - len(np.unique(cells, axis=0))
+    if len(P) > 1:  # welded as the STL reader welds: within STL_WELD of the size (the same in mm, m, at 5e6)
+        lo, hi = P.min(axis=0), P.max(axis=0)
+        label = weld_labels(P - 0.5 * (lo + hi), STL_WELD * float(np.linalg.norm(hi - lo)))
+        shared = len(P) - (int(label.max()) + 1)
     if shared:
         return MeshError(name, f"the mesh has {pieces} connected pieces that share {shared} vertex positions: it is "
                                "not welded; weld it (Rhino: _Weld, or _Join then _Weld) and send it again")

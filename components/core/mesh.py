@@ -456,6 +456,31 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
 STL_WELD = 1e-6
 
 
+def weld_labels(P: np.ndarray, tol: float) -> np.ndarray:
+    """The weld group of every point ``P (k, 3)``: points closer than ``tol`` are joined, transitively (a KD-tree's
+    close pairs, then connected components); ``(k,)`` labels ``0 .. groups − 1``, ``arange(k)`` when nothing is
+    that close. Pass coordinates about the points' own centre at site coordinates (the tree measures as given).
+
+    >>> weld_labels(np.array([[0.0, 0, 0], [1, 0, 0], [1 + 1e-9, 0, 0]]), 1e-6).tolist()
+    [0, 1, 1]
+    """
+    # deferred import: scipy.spatial + csgraph took 1.5 s to import (measured), only welds need them
+    from scipy.sparse import coo_matrix
+    # deferred import: as above
+    from scipy.sparse.csgraph import connected_components
+    # deferred import: as above
+    from scipy.spatial import cKDTree
+
+    k = len(P)
+    if k < 2 or not tol > 0:
+        return np.arange(k)
+    pairs = cKDTree(P).query_pairs(tol, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.arange(k)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(k, k))
+    return connected_components(graph, directed=False)[1]
+
+
 class StlMesh(NamedTuple):
     """A welded STL triangle mesh."""
 
@@ -504,13 +529,6 @@ def read_stl(path) -> StlMesh:
     MeshError
         Not an STL file, or no triangle in it.
     """
-    # deferred import: scipy.spatial + csgraph took 1.5 s to import (measured), only STL files need them
-    from scipy.sparse import coo_matrix
-    # deferred import: as above
-    from scipy.sparse.csgraph import connected_components
-    # deferred import: as above
-    from scipy.spatial import cKDTree
-
     path = Path(path)
     T = _stl_triangles(path.read_bytes(), path.name)
     if len(T) == 0:
@@ -521,11 +539,8 @@ def read_stl(path) -> StlMesh:
     diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
     tol = STL_WELD * diag
     centre = 0.5 * (P.max(axis=0) + P.min(axis=0))  # site coordinates: the KD-tree works relative to the box
-    pairs = cKDTree(P - centre).query_pairs(tol, output_type="ndarray") if tol > 0 else np.empty((0, 2), int)
     n = len(P)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    _, first, inverse = np.unique(label, return_index=True, return_inverse=True)
+    _, first, inverse = np.unique(weld_labels(P - centre, tol), return_index=True, return_inverse=True)
     V = P[first]
     F = inverse.reshape(-1, 3).astype(np.int64)
     keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])

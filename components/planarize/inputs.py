@@ -33,13 +33,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from components.core.checks import check_mesh, validate_mesh
 from components.core.errors import MeshError
-from components.core.mesh import edge_topology, face_sizes
+from components.core.mesh import edge_topology, face_sizes, weld_labels
 from components.metrics.health import TOUCH, touching_pairs
 
 __all__ = ["WELD_FRACTION", "TOUCH_FRACTION", "Prepared", "Reference", "prepared_mesh", "centred_reference"]
@@ -159,14 +156,10 @@ def _weld_map(X, used, tol) -> np.ndarray | None:
     """``(n,)`` representative (smallest index) of every vertex after welding the used vertices within ``tol``;
     ``None`` when no two used vertices are that close."""
     idx = np.nonzero(used)[0]
-    if len(idx) < 2 or not tol > 0:
-        return None
-    pairs = cKDTree(X[idx]).query_pairs(tol, output_type="ndarray")
-    if len(pairs) == 0:
-        return None
     k = len(idx)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(k, k))
-    _, label = connected_components(graph, directed=False)
+    label = weld_labels(X[idx], tol)
+    if not k or label.max() + 1 == k:  # no two that close
+        return None
     first = np.full(label.max() + 1, k, dtype=np.int64)
     np.minimum.at(first, label, np.arange(k))
     rep = np.arange(len(X))
