@@ -484,8 +484,8 @@ def _polygon_faces(F: np.ndarray, ngons: _Ngons | None, vcount: int) -> np.ndarr
 
     An n-gon is used only when it is a simple polygon over its faces: every index in range, three to
     :data:`MAX_NGON_CORNERS` distinct boundary vertices (a larger one, a whole flat region rather than a panel,
-    would widen every row of ``F``), faces in no other n-gon, and the edges its faces do not share with each other are
-    exactly the consecutive pairs of its boundary (no hole, no stray face, no edge of three faces); others are
+    would widen every row of ``F``), faces in no other n-gon, and the edges its faces do not share with each other
+    are exactly the consecutive pairs of its boundary (no hole, no stray face, no edge of three faces); others are
     ignored (their faces kept), as openNURBS skips a corrupt n-gon. One-face n-gons (Rhino may make one for every
     face) change nothing.
     """
@@ -640,8 +640,8 @@ def read_mesh(obj: dict, limits: dict | None = None) -> tuple[np.ndarray, np.nda
         vertices) and ``F`` of shape ``(m, 4)`` int64 (triangles stored as
         ``(a, b, c, c)``), or ``(m, k)`` when the mesh has n-gons: each
         n-gon is one face of its boundary vertices, padded by repeating its
-        last vertex (see :func:`_polygon_faces`).  ``None`` when the data is not an ON_Mesh in a
-        layout this reader fully understands and verifies (unknown versions,
+        last vertex (see :func:`_polygon_faces`).  ``None`` when the data is
+        not an ON_Mesh in a layout this reader fully understands and verifies (unknown versions,
         user data, CRC or length mismatch, truncation, garbage); the caller
         should then fall back to rhino3dm.  Raises only :class:`TooLarge`
         (counts over ``limits``) and ``MemoryError``; neither should be

@@ -3,8 +3,9 @@
 * Mesh ⇄ ``(V, F)``: ``V (n, 3) float64`` (double-precision vertices), ``F (m, 4) int64`` with triangles as
   ``(a, b, c, c)``; a face with more than four corners is written as a triangle fan grouped into one n-gon (Rhino
   meshes hold triangles and quads; n-gons name the polygons they make up), and an n-gon is read back as one face
-  of its boundary vertices (``F (m, k)``, padded by repeating a face's last vertex). Meshes are read and written through the openNURBS archive directly
-  (:mod:`ghserver._onmesh`) when its layout is recognised, through rhino3dm objects otherwise.
+  of its boundary vertices (``F (m, k)``, padded by repeating a face's last vertex). Meshes are read and written
+  through the openNURBS archive directly (:mod:`ghserver._onmesh`) when its layout is recognised, through rhino3dm
+  objects otherwise.
 * Curve ⇄ polyline ``(n, 3)`` array (PolylineCurve, LineCurve, polyline-shaped NURBS of degree 1) or
   :class:`components.core.types.NurbsCurve` (everything else, through ``ToNurbsCurve``).
 * Surface → :class:`components.core.types.NurbsSurface` (a NurbsSurface, any Surface, or a one-face Brep).
@@ -275,7 +276,7 @@ def arrays_to_mesh(V, F, colors=None):
     V = np.asarray(V, dtype=np.float64)
     F4, ngons = _rhino_faces(F)
     if ngons is not None:  # rhino3dm cannot add n-gons: decode the archive written with them
-        C = None if colors is None else np.clip(np.rint(np.asarray(colors)[:, :3]), 0, 255).astype(np.uint8)
+        C = None if colors is None else _rgb8(np.asarray(colors)[:, :3])
         return rhino3dm.CommonObject.Decode(_onmesh.write_mesh(V, F4, C, ngons=ngons))
     mesh = rhino3dm.Mesh()
     mesh.Vertices.UseDoublePrecisionVertices = True
@@ -292,15 +293,19 @@ def arrays_to_mesh(V, F, colors=None):
     return mesh
 
 
+def _rgb8(colors) -> np.ndarray:
+    """Colours as uint8 (others rounded and clipped to 0..255)."""
+    colors = np.asarray(colors)
+    return colors if colors.dtype == np.uint8 else np.clip(np.rint(colors), 0, 255).astype(np.uint8)
+
+
 def encode_mesh(V, F, colors=None) -> str:
     """JSON text of a Rhino mesh holding ``(V, F)`` (and per-vertex RGB ``colors`` (n, 3) uint8 if given); faces of
     more than four corners are n-gons (triangle fans grouped as one polygon, which :func:`decode_mesh` reads back
     as the polygon)."""
     V = np.asarray(V, dtype=np.float64)
     if colors is not None:
-        colors = np.asarray(colors)
-        if colors.dtype != np.uint8:
-            colors = np.clip(np.rint(colors), 0, 255).astype(np.uint8)
+        colors = _rgb8(colors)
     if _onmesh is not None:
         F4, ngons = _rhino_faces(F)
         return json.dumps(_onmesh.write_mesh(V, F4, colors, ngons=ngons))

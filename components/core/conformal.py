@@ -539,7 +539,8 @@ def disk_map(V: np.ndarray, T: np.ndarray, shape: str = "disk", weights: str = "
 #: how the refusal of a mesh with several boundary loops or a handle starts (:func:`check_disk`)
 NOT_A_DISK_REFUSAL = "not a topological disk"
 #: what to do about a mesh that is not a disk, for the disk and square maps (LSCM takes several loops)
-DISK_ADVICE = "a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles several boundary loops"
+DISK_ADVICE = ("a disk/square map needs exactly one boundary loop; use LSCM (method='lscm'), which handles several "
+               "boundary loops")
 
 
 def check_disk(V, T, loops, advice: str = DISK_ADVICE):

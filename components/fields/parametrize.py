@@ -39,9 +39,8 @@ direction field", ACM Trans. Graph. (SIGGRAPH Asia) 30(6), 2011 (non-orthogonal 
 """
 from __future__ import annotations
 
-import math
-
 import logging
+import math
 import time
 from functools import partial
 from typing import NamedTuple

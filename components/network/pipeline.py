@@ -361,7 +361,8 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     check_choice(boundary_cells, "boundary_cells", BOUNDARY_CELLS)
     V0, F0 = check_mesh(mesh, "mesh")
     h = check_number(panel_size, "panel_size", 0, above=True)
-    check_target_fits(V0, F0 if F0.shape[1] == 3 else triangulate(F0)[0], h, "panel_size")  # in the units given
+    T0 = F0 if F0.shape[1] == 3 else triangulate(F0)[0]
+    check_target_fits(V0, T0, h, "panel_size")  # in the units given
     fr = _frame(V0)
     warnings: list[str] = []
     hn = max(round(h / fr.scale / SNAP), 1) * SNAP  # on the same grid: the same panel size in every unit
@@ -403,7 +404,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
         if not (extend and exc.input_name == "mesh"
                 and exc.detail.startswith((UMBILIC_REFUSAL, FOLD_REFUSAL, NOT_A_DISK_REFUSAL))):
             raise
-        V, T, net = Vn, (F0 if F0.shape[1] == 3 else triangulate(F0)[0]), None
+        V, T, net = Vn, T0, None
         why = exc.detail
         if why.startswith(NOT_A_DISK_REFUSAL):
             why = why.split(":")[0] + "; the curvature-network rebuild needs one boundary loop and no handle"

@@ -210,8 +210,9 @@ def _flip_dots(N, flip_normals) -> np.ndarray:
 
 def _flip_watch(prob, N0, area_in) -> dict:
     """The flip guard's data (with an oriented reference): the reference's unit normal at the closest point of
-    every input face's centroid (on a reference edge or vertex its normal there, not one face's), turned to the side most of the face area lies on (as the verdict's "flipped"
-    check of :func:`components.metrics.health.face_health` does), and the faces on that side in the input. A
+    every input face's centroid (on a reference edge or vertex its normal there, not one face's), turned to the side
+    most of the face area lies on (as the verdict's "flipped" check of :func:`components.metrics.health.face_health`
+    does), and the faces on that side in the input. A
     face whose normal turns against its normal there is flipped: the verdict would find it so (faces slide by at
     most a few edges, where a smooth reference's normal turns little)."""
     if prob.ref_index is None or not prob.ref_index.oriented or len(prob.F) == 0:
