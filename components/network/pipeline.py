@@ -125,6 +125,13 @@ class _Frame(NamedTuple):
         tolerance), so that the rounding of other units or of a far placement cannot change the traced network."""
         return np.round((np.asarray(X, np.float64) - self.centre) / self.scale / SNAP) * SNAP
 
+    def unsnapped(self, X):
+        """``(X − centre) / scale`` as computed: for the fields fallback (:func:`_fields_candidate`), whose candidate
+        changes less with the rounding of a far placement (about 1e-10 of the size at every vertex) than with the
+        whole grid step by which :meth:`to` moves the few vertices whose rounding straddles a grid line (the dome of
+        the tests: 101 or 102 panels with the placement, snapped; 102 at every placement, unsnapped)."""
+        return (np.asarray(X, np.float64) - self.centre) / self.scale
+
     def back(self, X):
         return np.asarray(X, np.float64) * self.scale + self.centre
 
@@ -394,17 +401,18 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
                 break
         if (optimize and extend and t["optimize"] < time_budget and deadline.time_left() >= last
                 and not any(o.healthy for _, o, _ in tries)):
-            fb = _fields_candidate(V, T, hn, "the curvature network's candidates did not give healthy panels after "
-                                             "the conical optimization (" + "; ".join(tries[0][1].violations) + ")")
+            Vu = fr.unsnapped(V0)
+            fb = _fields_candidate(Vu, T, hn, "the curvature network's candidates did not give healthy panels after "
+                                              "the conical optimization (" + "; ".join(tries[0][1].violations) + ")")
             if fb is not None:
-                tries.append((fb, _finished(V, T, fb, optimize, closeness_weight, time_budget - t["optimize"], t),
+                tries.append((fb, _finished(Vu, T, fb, optimize, closeness_weight, time_budget - t["optimize"], t),
                               None))
     except InputError as exc:  # umbilic almost everywhere (every direction is principal), folding everywhere, or
         # holes or handles (the rebuild intersects the lines in one plane map of a disk; the fields stage cuts)
         if not (extend and exc.input_name == "mesh"
                 and exc.detail.startswith((UMBILIC_REFUSAL, FOLD_REFUSAL, NOT_A_DISK_REFUSAL))):
             raise
-        V, T, net = Vn, T0, None
+        V, T, net = fr.unsnapped(V0), T0, None
         why = exc.detail
         if why.startswith(NOT_A_DISK_REFUSAL):
             why = why.split(":")[0] + "; the curvature-network rebuild needs one boundary loop and no handle"

@@ -144,6 +144,77 @@ def test_a_corner_reflex_in_3d_is_reflex():
     assert ang[2] > 180.0 and np.all(ang[[0, 1, 3]] < 180.0)
 
 
+def test_a_corner_straight_in_the_plane_is_judged_by_its_3d_turn_not_by_rounding():
+    """A node put on a straight edge in the plane (a line's end, a split) is collinear with its neighbours up to
+    rounding; the sign of that rounding must not make its 3D angle reflex (at +5e6 it did, for some such nodes of a
+    torus: other cells, other panels)."""
+    a, b = np.array([1.0, 0.0]), np.array([0.3, 1.0])
+    signs = {}
+    for t in np.linspace(0.3, 0.7, 401):
+        m = a + t * (b - a)  # on the segment, up to rounding
+        c2 = float((b[0] - m[0]) * (a[1] - m[1]) - (b[1] - m[1]) * (a[0] - m[0]))
+        if c2 != 0.0:
+            signs.setdefault(c2 > 0.0, m)
+    assert set(signs) == {True, False}  # the rounding goes either way
+    for m in signs.values():
+        P = np.array([[0.0, 0.0], a, m, b, [0.0, 1.0]])
+        Q = np.c_[P, [0.0, 0.0, 0.15, 0.0, 0.0]]  # the node on the edge bulges off the plane of the others
+        ang = _angles3(P, Q)
+        assert 120.0 < ang[2] < 180.0, ang
+        assert np.array_equal(_angles3_many(P[None], Q[None])[0], ang)
+        # split towards corner 4 or 0 from the straight corner: no reflex half either way
+        assert max(_split_pair(P.tolist(), Q.tolist(), 2, 4)) < 180.0
+        assert list(_split_pair(P.tolist(), Q.tolist(), 2, 0)) == _split_angles3(P, Q, 2, P[0], Q[0]).tolist()
+
+
+def _jittered(fn, u0, u1, v0, v1, ku, kv, keep=None):
+    """Triangles of a parameter grid (inner nodes jittered by ±20% of a step) mapped by ``fn(u, v) -> (x, y, z)``,
+    the cells ``keep(u, v)`` (at their centres) only."""
+    u, v = np.linspace(u0, u1, ku + 1), np.linspace(v0, v1, kv + 1)
+    U, W = np.meshgrid(u, v)
+    rng = np.random.default_rng(0)
+    inner = (U > u0 + 1e-9) & (U < u1 - 1e-9) & (W > v0 + 1e-9) & (W < v1 - 1e-9)
+    U = U + inner * rng.uniform(-0.2, 0.2, U.shape) * (u[1] - u[0])
+    W = W + inner * rng.uniform(-0.2, 0.2, W.shape) * (v[1] - v[0])
+    V = np.stack([c.ravel() for c in fn(U, W)], 1)
+    idx = np.arange(U.size).reshape(U.shape)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    T = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    if keep is not None:
+        T = T[keep(U.ravel()[T].mean(1), W.ravel()[T].mean(1))]
+    used = np.unique(T)
+    new = np.full(len(V), -1)
+    new[used] = np.arange(len(used))
+    return V[used], new[T]
+
+
+SYMMETRIC = {
+    # a patch of a torus of revolution (both curvature signs; its curvature lines are circles, its cells congruent)
+    "torus": (lambda u, w: ((3 + np.cos(u)) * np.cos(w), (3 + np.cos(u)) * np.sin(w), np.sin(u)),
+              (-2.2, 2.2, 0.0, 1.6, 64, 40), None, 0.45),
+    # a spherical dome (umbilic everywhere: the fields fallback)
+    "dome": (lambda u, w: (u, w, np.sqrt(9 - u * u - w * w)), (-2.0, 2.0, -2.0, 2.0, 77, 77),
+             lambda u, w: u * u + w * w < 4, 0.4),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SYMMETRIC))
+def test_a_symmetric_surface_gives_the_same_panels_at_a_far_placement(name):
+    """Site coordinates round every vertex by about 1e-10 of the size. Before: the torus gave 168 panels at +5e6 and
+    153 at the origin (a node on a straight edge judged reflex by the rounding's sign), the dome 102 and 101 (the
+    fields fallback ran on the snapped coordinates, where the rounding of one vertex had straddled a grid line)."""
+    fn, grid, keep, h = SYMMETRIC[name]
+    V, T = _jittered(fn, *grid, keep=keep)
+    size = float((V.max(axis=0) - V.min(axis=0)).max())
+    a = pq_from_curvature_network((V, T), panel_size=h)
+    for shift in ((5e6, 5e6, 0.0), (2e6, 3e6, 100.0)):
+        b = pq_from_curvature_network((V + np.array(shift), T), panel_size=h)
+        assert np.array_equal(b.optimized[1], a.optimized[1]), (name, shift, len(a.optimized[1]), len(b.optimized[1]))
+        # the same panels, to the optimization's own convergence (the dome's: 2.5e-6 of its size)
+        np.testing.assert_allclose(b.optimized[0] - np.array(shift), a.optimized[0], atol=1e-5 * size)
+        assert (b.healthy, b.is_conical) == (a.healthy, a.is_conical)
+
+
 def test_batched_cell_measures_are_the_per_cell_numbers():
     """The vectorized angles and areas (all cells of a size at once) and the plain-float split angles give exactly
     the numbers of the per-cell functions, also far from the origin: the healing's choices do not change."""
