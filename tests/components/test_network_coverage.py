@@ -144,10 +144,10 @@ def test_a_corner_reflex_in_3d_is_reflex():
     assert ang[2] > 180.0 and np.all(ang[[0, 1, 3]] < 180.0)
 
 
-def test_a_corner_straight_in_the_plane_is_judged_by_its_3d_turn_not_by_rounding():
+def test_a_corner_straight_in_the_plane_is_judged_by_its_3d_angle_whatever_its_rounding():
     """A node put on a straight edge in the plane (a line's end, a split) is collinear with its neighbours up to
-    rounding; the sign of that rounding must not make its 3D angle reflex (at +5e6 it did, for some such nodes of a
-    torus: other cells, other panels)."""
+    rounding; the sign of that rounding decided whether its 3D angle counted as reflex (at +5e6, for some such nodes of
+    a torus: other cells, other panels). Its 3D angle decides either way, as for an exactly straight corner."""
     a, b = np.array([1.0, 0.0]), np.array([0.3, 1.0])
     signs = {}
     for t in np.linspace(0.3, 0.7, 401):
@@ -160,11 +160,14 @@ def test_a_corner_straight_in_the_plane_is_judged_by_its_3d_turn_not_by_rounding
         P = np.array([[0.0, 0.0], a, m, b, [0.0, 1.0]])
         Q = np.c_[P, [0.0, 0.0, 0.15, 0.0, 0.0]]  # the node on the edge bulges off the plane of the others
         ang = _angles3(P, Q)
-        assert 120.0 < ang[2] < 180.0, ang
+        assert 120.0 < ang[2] < 180.0, ang  # its 3D angle: the lifted node bulges off the chord
         assert np.array_equal(_angles3_many(P[None], Q[None])[0], ang)
-        # split towards corner 4 or 0 from the straight corner: no reflex half either way
+        # the straight corner split towards corner 4: two convex halves, the same numbers both ways
         assert max(_split_pair(P.tolist(), Q.tolist(), 2, 4)) < 180.0
-        assert list(_split_pair(P.tolist(), Q.tolist(), 2, 0)) == _split_angles3(P, Q, 2, P[0], Q[0]).tolist()
+        assert list(_split_pair(P.tolist(), Q.tolist(), 2, 4)) == _split_angles3(P, Q, 2, P[4], Q[4]).tolist()
+    P = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    Q = np.c_[P, [0.0, 0.0, 0.1, 0.0]]
+    assert np.all(_angles3(P, Q) < 180.0)  # a convex corner stays convex
 
 
 def _jittered(fn, u0, u1, v0, v1, ku, kv, keep=None):
