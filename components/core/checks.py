@@ -11,11 +11,12 @@ import numbers
 from collections.abc import Iterable
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from components.core.errors import InputError, MeshError
 from components.core.memo import ContentCache, digest
-from components.core.mesh import (STL_WELD, bounding_box_diagonal, edge_topology, face_normals, face_sizes, halfedges,
-                                  weld_labels)
+from components.core.mesh import (STL_WELD, boundary_loops, bounding_box_diagonal, edge_topology, face_normals,
+                                  face_sizes, halfedges, weld_labels)
 
 __all__ = ["check_int", "check_number", "check_choice", "check_points", "check_mesh", "validate_mesh",
            "MESH_KINDS"]
@@ -227,6 +228,74 @@ def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshErro
         return MeshError(name, f"the mesh has {pieces} connected pieces that share {shared} vertex positions: it is "
                                "not welded; weld it (Rhino: _Weld, or _Join then _Weld) and send it again")
     return MeshError(name, f"the mesh has {pieces} connected pieces; {advice}")
+
+
+#: boundary_gap_warning: boundary points closer than this × the panel size in space ...
+GAP_SHARE = 0.25
+#: ... and this many times farther apart along the boundary (a notch sharper than about 11° counts as a gap)
+GAP_DETOUR = 10.0
+
+
+def boundary_gap_warning(V, F, panel: float) -> str | None:
+    """The warning for a surface whose boundary passes close to itself (an unwelded seam, a slit, an opening near the
+    edge), or None: where two stretches of boundary are less than :data:`GAP_SHARE` × ``panel`` apart in space but far
+    apart along the boundary (more than twice that and :data:`GAP_DETOUR` times their distance; or on two loops), no
+    panel fits across the gap, and a seam of coincident vertices (within
+    :data:`~components.core.mesh.STL_WELD` of the size) is a surface that was meant to be closed there. The panels of
+    every strategy stop at such a gap (they may pinch there); the warning says where and what to do. Relative to the
+    size and the panel: the same in mm, m and at +5e6.
+
+    >>> from components.core.mesh import quad_grid
+    >>> V, Q = quad_grid(8, 2, 8.0, 2.0)
+    >>> boundary_gap_warning(V, Q, 1.0) is None
+    True
+    >>> ring = np.c_[np.cos(V[:, 0] * np.pi / 4), np.sin(V[:, 0] * np.pi / 4), V[:, 1]]  # rolled up, not welded
+    >>> print(boundary_gap_warning(ring, Q, 1.0))
+    the surface's boundary runs along itself: 3 pairs of boundary vertices at the same positions (a seam that is not welded, e.g. vertices 0 and 8): the panels stop at the seam; weld it (Rhino: _Weld) for panels across it
+    """
+    try:
+        loops = boundary_loops(F)
+    except MeshError:  # a boundary that is not a set of loops is the validation's to word
+        return None
+    if not loops or not panel > 0:
+        return None
+    V = np.asarray(V, dtype=np.float64)
+    B = np.concatenate(loops)
+    loop_of = np.repeat(np.arange(len(loops)), [len(lp) for lp in loops])
+    arc, total = [], []
+    for lp in loops:
+        seg = np.linalg.norm(V[np.roll(lp, -1)] - V[lp], axis=1)
+        arc.append(np.concatenate([[0.0], np.cumsum(seg[:-1])]))
+        total.append(np.full(len(lp), seg.sum()))
+    arc, total = np.concatenate(arc), np.concatenate(total)
+    P = V[B]
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    P = P - 0.5 * (lo + hi)  # centred: the same pairs at +5e6
+    r = GAP_SHARE * float(panel)
+    pairs = cKDTree(P).query_pairs(r, output_type="ndarray")
+    if not len(pairs):
+        return None
+    i, j = pairs[:, 0], pairs[:, 1]
+    d = np.linalg.norm(P[i] - P[j], axis=1)
+    along = np.abs(arc[i] - arc[j])
+    along = np.minimum(along, total[i] - along)
+    far = (loop_of[i] != loop_of[j]) | ((along > 2.0 * r) & (along > GAP_DETOUR * d))
+    if not far.any():
+        return None
+    i, j, d = i[far], j[far], d[far]
+    size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    seam = d <= STL_WELD * size
+    lo_v, hi_v = np.minimum(B[i], B[j]), np.maximum(B[i], B[j])
+    # the example: the closest pair (of a seam: the one with the lowest vertices, whatever the rounding of its zeros)
+    k = int(np.lexsort((hi_v, lo_v, np.where(seam, 0.0, d)))[0])
+    a, b = int(lo_v[k]), int(hi_v[k])
+    if seam.any():
+        return (f"the surface's boundary runs along itself: {int(seam.sum())} pairs of boundary vertices at the same "
+                f"positions (a seam that is not welded, e.g. vertices {a} and {b}): the panels stop at the seam; weld "
+                "it (Rhino: _Weld) for panels across it")
+    return (f"the surface's boundary passes within {d[k]:.3g} of itself ({d[k] / float(panel):.2g} × the panel size, "
+            f"e.g. at vertices {a} and {b}; {len(d)} such pairs): no panel fits across that gap and the panels on its "
+            "two sides may pinch; widen the gap, close it (join and weld), or use smaller panels")
 
 
 def check_mesh(mesh, name: str = "mesh", **kwargs) -> tuple[np.ndarray, np.ndarray]:

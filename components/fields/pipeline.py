@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from components.core.blas import single_blas_thread
-from components.core.checks import check_mesh, check_number
+from components.core.checks import boundary_gap_warning, check_mesh, check_number
 from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
 from components.core.mesh import triangulate
@@ -214,6 +214,9 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     (Vp, Fp), pmax, pmean, cmean, cmax = out.planarized
     if not healthy and any(health.counts[d] for d in ("intersecting", "folded", "flipped")):
         warnings += _surface_crossings(mesh)
+    gap = boundary_gap_warning(*check_mesh(mesh), target)
+    if gap:
+        warnings.insert(0, gap)
     return PQResult((cand.V, cand.F), q.max_planarity, q.mean_planarity, (Vp, Fp), pmax, pmean, cmean, cmax,
                     q.quad_ratio, q.edge_length_within, cand.singularities, cand.mean_angle_error,
                     cand.timings["field"], cand.timings["parametrize"], cand.timings["extract"], tp, bool(healthy),

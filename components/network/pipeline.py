@@ -49,7 +49,7 @@ import numpy as np
 from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_solve
 from components.core.blas import single_blas_thread
-from components.core.checks import check_choice, check_mesh, check_number
+from components.core.checks import boundary_gap_warning, check_choice, check_mesh, check_number
 from components.core.conformal import NOT_A_DISK_REFUSAL
 from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
@@ -425,7 +425,8 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
                                               tries[i][1].coverage < HEALTH["min_coverage"],
                                               tries[i][1].bad_faces / max(len(tries[i][1].F), 1), i))
     cand, out, bulge = tries[k]
-    warnings = list(cand.warnings) + list(out.warnings)
+    gap = boundary_gap_warning(V0, F0, h)
+    warnings = ([gap] if gap else []) + list(cand.warnings) + list(out.warnings)
     if k > 0 and bulge is not None:
         warnings.append(f"the curvature network's cells healed to bulge at most {HEAL_TRIES[0]:g} × the median edge "
                         "did not give healthy panels after the conical optimization ("
