@@ -123,6 +123,16 @@ after the other (components/planarize/guard.py, problem.py, geometry.py):
   of 24, and ×1 and ×1000 now end at the same max planarity on all 8 pairs; ``--real 60 300``: 30 and 39 of 42 as in
   session 18.
 
+Session 21 (session 17's machine), ``--saved`` on the 135 saved candidates, tried and not adopted (the machine's
+speed swung 30 % within the hour, so only CPU seconds and counts are compared):
+- Guard rows for the items an unhealthy trial moved towards their bound by so much that one more such move would pass
+  the row's act level (components/planarize/guard.py ``rows_to_guard``), not only those already under it: the 20k
+  benchmark candidate took 30-50 iterations instead of 25 (0.5, 1 and 2 moves ahead), the rows over-constrain.
+- The closeness stiffness relaxed after two held restore steps instead of three (phases.py ``_HELD_STEPS``): the 20k
+  benchmark candidate 25 → 23 iterations (1.18 → 0.96 s), but the 200k one 31 → 40 (12.5 → 17.1 s) and on the 124
+  candidates both runs finished (the second was stopped there) 112 → 111 converged in 239 → 241 CPU s (wein99_opt at
+  60 panels stalled).
+
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
 - Guard rows *added* to a factored system solved with its factor bordered by them (a Schur complement of up to 64
