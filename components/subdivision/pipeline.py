@@ -33,7 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_choice, check_int, check_number, validate_mesh
+from components.core.checks import boundary_gap_warning, check_choice, check_int, check_number, validate_mesh
 from components.core import progress
 from components.core.errors import InputError
 from components.core.measures import (corner_angles, max_quad_planarity, nonconvex_faces, quad_planarity,
@@ -378,6 +378,9 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     said = "\n".join(warnings)  # what the planarizer (or the back-off) said already is not said twice
     warnings += [w for w in _verdict_warnings(health, planarity, tolerance, res is not None)
                  if w.split(': ', 1)[1] not in said and not ("planarity tolerance" in w and "× the tolerance" in said)]
+    gap = boundary_gap_warning(V, T, mean_edge)  # a seam or a slit in the surface, at the size of the panels
+    if gap:
+        warnings.insert(0, gap)
     return SubdivisionPQ((Vc, Fc), (Xc, Qs), cand_pl, cand_dist, res, mean_edge, timings, warnings, used_layout,
                          health, healthy, float(health.coverage), list(health.violations), bool(reached and healthy))
 

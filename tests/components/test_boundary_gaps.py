@@ -9,6 +9,7 @@ from components.core.checks import boundary_gap_warning
 from components.core.mesh import quad_grid, triangulate
 from components.fields.pipeline import pq_from_conjugate_field
 from components.network.pipeline import pq_from_curvature_network
+from components.subdivision.pipeline import pq_from_subdivision
 
 PLACES = [(1.0, 0.0), (1000.0, 0.0), (1.0, 5e6)]
 
@@ -74,3 +75,5 @@ def test_the_strategies_say_it():
     assert net.warnings[0].startswith("the surface's boundary runs along itself")
     fld = pq_from_conjugate_field((V, T), 0.8, planarize=False)
     assert fld.warnings[0].startswith("the surface's boundary runs along itself")
+    sub = pq_from_subdivision((V, T), faces=24, planarize=False)
+    assert sub.warnings[0].startswith("the surface's boundary runs along itself")
