@@ -11,7 +11,6 @@ import numbers
 from collections.abc import Iterable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from components.core.errors import InputError, MeshError
 from components.core.memo import ContentCache, digest
@@ -253,6 +252,9 @@ def boundary_gap_warning(V, F, panel: float) -> str | None:
     >>> print(boundary_gap_warning(ring, Q, 1.0))
     the surface's boundary runs along itself: 3 pairs of boundary vertices at the same positions (a seam that is not welded, e.g. vertices 0 and 8): the panels stop at the seam; weld it (Rhino: _Weld) for panels across it
     """
+    # deferred import: scipy.spatial is not needed to import this module (see components.core.mesh.weld_labels)
+    from scipy.spatial import cKDTree
+
     try:
         loops = boundary_loops(F)
     except MeshError:  # a boundary that is not a set of loops is the validation's to word
@@ -283,8 +285,7 @@ def boundary_gap_warning(V, F, panel: float) -> str | None:
     if not far.any():
         return None
     i, j, d = i[far], j[far], d[far]
-    size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-    seam = d <= STL_WELD * size
+    seam = d <= STL_WELD * bounding_box_diagonal(V)
     lo_v, hi_v = np.minimum(B[i], B[j]), np.maximum(B[i], B[j])
     # the example: the closest pair (of a seam: the one with the lowest vertices, whatever the rounding of its zeros)
     k = int(np.lexsort((hi_v, lo_v, np.where(seam, 0.0, d)))[0])

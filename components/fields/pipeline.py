@@ -214,7 +214,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     (Vp, Fp), pmax, pmean, cmean, cmax = out.planarized
     if not healthy and any(health.counts[d] for d in ("intersecting", "folded", "flipped")):
         warnings += _surface_crossings(mesh)
-    gap = boundary_gap_warning(*check_mesh(mesh), target)
+    gap = boundary_gap_warning(*surface, target)  # the input's triangles: its boundary
     if gap:
         warnings.insert(0, gap)
     return PQResult((cand.V, cand.F), q.max_planarity, q.mean_planarity, (Vp, Fp), pmax, pmean, cmean, cmax,

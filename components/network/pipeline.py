@@ -123,7 +123,7 @@ class _Frame(NamedTuple):
     def to(self, X):
         """``(X − centre) / scale`` snapped to a grid of ``SNAP`` (a millionth of the size, far below any modelling
         tolerance), so that the rounding of other units or of a far placement cannot change the traced network."""
-        return np.round((np.asarray(X, np.float64) - self.centre) / self.scale / SNAP) * SNAP
+        return np.round(self.unsnapped(X) / SNAP) * SNAP
 
     def unsnapped(self, X):
         """``(X − centre) / scale`` as computed: for the fields fallback (:func:`_fields_candidate`), whose candidate
