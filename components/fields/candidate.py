@@ -26,6 +26,7 @@ from components.core.blas import single_blas_thread
 from components.core.checks import check_choice, check_mesh, check_number
 from components.core import deadline, progress
 from components.core.errors import InputError
+from components.core.frame import Frame, bounding_frame
 from components.core.measures import cross, quad_planarity
 from components.core.mesh import edge_topology, face_sizes, triangulate
 from components.core.parallel import concurrently, for_each
@@ -275,7 +276,20 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     >>> cand.quads, cand.other_faces, cand.singularities
     (16, 0, 0)
     """
-    timings = {}
+    V, T, target, alignment, cons = checked_inputs(mesh, target_length, field, alignment, boundary, constraint_faces,
+                                                   constraint_directions, name)
+    # centred, unit size, snapped: far from the origin the products would lose digits, and the same surface in other
+    # units gives the same numbers bit for bit (components.core.frame), so the same candidate up to scale
+    frame = bounding_frame(V)
+    return framed_candidate(frame.to(V), T, frame.length(target), frame, field, alignment, boundary, cons, merge,
+                            release_separation, repair)
+
+
+def checked_inputs(mesh, target_length, field, alignment, boundary, constraint_faces, constraint_directions,
+                   name: str = "mesh"):
+    """:func:`candidate_mesh`'s inputs checked: ``(V, T, target, alignment, constraints)``, ``T`` the triangulated
+    faces; :class:`~components.core.errors.InputError` / :class:`~components.core.errors.MeshError` naming the bad
+    one."""
     target = check_number(target_length, "target_length", 0, above=True)
     check_choice(field, "field", FIELDS)
     alignment = check_number(alignment, "alignment", 0)
@@ -284,8 +298,17 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
     T, _ = triangulate(F)
     cons = _check_constraints(constraint_faces, constraint_directions, len(T))
     check_target_fits(V, T, target)
-    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
-    V = V - center  # about the bounding-box centre: far from the origin the products would lose digits
+    return V, T, target, alignment, cons
+
+
+@single_blas_thread()
+def framed_candidate(V, T, target: float, frame: Frame, field: str = "conjugate", alignment: float = 0.1,
+                     boundary: str = "auto", cons=None, merge: float = 0.05, release_separation: float | None = None,
+                     repair: bool = False) -> Candidate:
+    """:func:`candidate_mesh` of checked inputs (:func:`checked_inputs`) given in the frame ``frame``
+    (``V = frame.to(model V)``, ``target = frame.length(model target)``); the candidate's vertices are mapped back
+    with ``frame.back`` (:data:`components.core.frame.IDENTITY` keeps them in the frame)."""
+    timings = {}
     progress.report(0.0, "direction field")
     t = time.perf_counter()
     U, W = direction_field(V, T, field=field, alignment=alignment, constraints=cons,
@@ -317,18 +340,19 @@ def candidate_mesh(mesh, target_length: float, field: str = "conjugate", alignme
             """The next healthy candidate of the ranking (repaired), or None."""
             for out in repaired:
                 if out[2] is not None and out[2].healthy:
-                    return _candidate(V, T, *out, center, dict(timings), alternative)
+                    return _candidate(V, T, *out, frame, dict(timings), alternative)
             return None
     else:
         ex, par = next(ranked)
     timings["extract"] = time.perf_counter() - t - timings["parametrize"]
-    out = _candidate(V, T, ex, par, health, repairs, center, timings, alternative)
+    out = _candidate(V, T, ex, par, health, repairs, frame, timings, alternative)
     out.warnings.extend(cut)
     return out
 
 
-def _candidate(V, T, ex, par, health, repairs, center, timings: dict, alternative) -> Candidate:
-    """The :class:`Candidate` of an extraction ``ex`` of the parametrization ``par`` (``V`` about ``center``)."""
+def _candidate(V, T, ex, par, health, repairs, frame: Frame, timings: dict, alternative) -> Candidate:
+    """The :class:`Candidate` of an extraction ``ex`` of the parametrization ``par`` (``V`` in ``frame``), in model
+    units."""
     warnings = list(par.warnings)
     s = face_sizes(ex.F) if len(ex.F) else np.zeros(0, dtype=np.int64)
     quads = int(np.count_nonzero(s == 4))
@@ -339,7 +363,7 @@ def _candidate(V, T, ex, par, health, repairs, center, timings: dict, alternativ
     mean_err = float(np.degrees(np.sum(par.angle_error * area) / area.sum()))
     ratio = quads / len(s) if len(s) else 0.0
     irregular = _irregular_vertices(ex.V, ex.F) if len(ex.F) else 0
-    return Candidate(ex.V + center, ex.F, ex.tri, ex.bary, quads, other, ratio, irregular, len(par.singularities),
+    return Candidate(frame.back(ex.V), ex.F, ex.tri, ex.bary, quads, other, ratio, irregular, len(par.singularities),
                      mean_err, par, T, warnings, timings, health, repairs, alternative)
 
 

@@ -29,7 +29,8 @@ from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
 from components.core.mesh import triangulate
 from components.core.types import Integers, Mesh, Texts, Vectors
-from components.fields.candidate import candidate_mesh, candidate_quality
+from components.fields.candidate import candidate_quality, checked_inputs, framed_candidate
+from components.core.frame import IDENTITY, bounding_frame
 from components.metrics.health import face_health, shape_healthy
 from components.planarize.planarizer import planarize_mesh
 
@@ -180,13 +181,16 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     tol = check_number(tolerance, "tolerance", 0)
     budget = check_number(time_budget, "time_budget", 0)
     closeness_weight = check_number(closeness_weight, "closeness_weight", 0)
+    V, T, target, alignment, cons = checked_inputs(mesh, target_length, field, alignment, boundary, constraint_faces,
+                                                   constraint_directions)
+    # everything runs centred, at unit size, on snapped coordinates (components.core.frame): the same surface in mm
+    # and in m gives the same candidate and the same planarization, bit for bit up to the scale
+    frame = bounding_frame(V)
+    surface, hn = (frame.to(V), T), frame.length(target)
     progress.report(0.0, "candidate mesh", until=0.5)
-    cand = candidate_mesh(mesh, target_length, field=field, alignment=alignment, boundary=boundary,
-                          constraint_faces=constraint_faces, constraint_directions=constraint_directions, repair=True)
-    target = float(target_length)
+    cand = framed_candidate(*surface, hn, IDENTITY, field, alignment, boundary, cons, repair=True)
     if len(cand.F) == 0:
         raise InputError("target_length", f"{target:g} is too large: no panel fits on the surface")
-    surface = (np.asarray(mesh[0], dtype=np.float64), cand.T)
     t = time.perf_counter()
     first, out, nxt, k = cand, None, cand, 1
     while nxt is not None:  # the best-ranked candidate, then (while they fall short) the next healthy ones
@@ -197,7 +201,7 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
             break
         planarized = _planarized(nxt.V, nxt.F, surface, tol, left, closeness_weight, warnings) if planarize else None
         progress.report(0.95, "panel health")
-        got = _judged(nxt, target, surface, planarized, planarize, tol, warnings)
+        got = _judged(nxt, hn, surface, planarized, planarize, tol, warnings)
         if out is None:
             first_why = got.why
         elif got.rank > out.rank:
@@ -214,10 +218,11 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     (Vp, Fp), pmax, pmean, cmean, cmax = out.planarized
     if not healthy and any(health.counts[d] for d in ("intersecting", "folded", "flipped")):
         warnings += _surface_crossings(mesh)
-    gap = boundary_gap_warning(*surface, target)  # the input's triangles: its boundary
+    gap = boundary_gap_warning(V, T, target)  # the input's triangles: its boundary, in model units
     if gap:
         warnings.insert(0, gap)
-    return PQResult((cand.V, cand.F), q.max_planarity, q.mean_planarity, (Vp, Fp), pmax, pmean, cmean, cmax,
+    return PQResult((frame.back(cand.V), cand.F), q.max_planarity, q.mean_planarity, (frame.back(Vp), Fp), pmax, pmean,
+                    cmean * frame.scale, cmax * frame.scale,
                     q.quad_ratio, q.edge_length_within, cand.singularities, cand.mean_angle_error,
                     cand.timings["field"], cand.timings["parametrize"], cand.timings["extract"], tp, bool(healthy),
                     float(health.coverage), list(health.violations), warnings)
