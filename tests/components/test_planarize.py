@@ -12,6 +12,7 @@ from components.planarize.geometry import LoopIndex, vertex_stars
 from components.planarize.goals import conical_residual
 from components.metrics.health import face_health
 from components.planarize.planarizer import on_surface, planarize
+from components.planarize.problem import SNAP
 from tests.conftest import data_file
 
 
@@ -131,7 +132,10 @@ def test_sliding_boundary_stays_on_the_reference_boundary():
     corners = {0, 8, 72, 80}  # grid corners stay fixed (where the noisy candidate put them)
     sliding = np.array([v for v in loop if v not in corners])
     q, _ = LoopIndex(V, [loop]).query(res.mesh[0][sliding])
-    assert np.abs(q - res.mesh[0][sliding]).max() <= 1e-9
+    # on it to the grid the solver snaps its coordinates to (a 2^-24 of the mean edge: 3e-8 here), the price of
+    # the same result in every unit (test_planarize_noisy)
+    mean_edge = float(np.linalg.norm(np.diff(Vp[loop], axis=0), axis=1).mean())
+    assert np.abs(q - res.mesh[0][sliding]).max() <= SNAP * mean_edge
     assert np.array_equal(res.mesh[0][sorted(corners)], Vp[sorted(corners)])
 
 
