@@ -40,7 +40,6 @@ Array-level: :func:`curvature_pipeline`. Published: :func:`pq_from_curvature_net
 from __future__ import annotations
 
 import logging
-import math
 import time
 from typing import Callable, NamedTuple
 
@@ -57,7 +56,8 @@ from components.core.measures import max_quad_planarity
 from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
                                   triangulate)
 from components.core.types import Curves, Lines, Mesh, Texts
-from components.fields.candidate import candidate_mesh
+from components.core.frame import IDENTITY, bounding_frame
+from components.fields.candidate import checked_inputs, framed_candidate
 from components.fields.parametrize import check_target_fits
 from components.metrics.health import DEFECT_BITS, face_health
 from components.network.healing import manifold_cells
@@ -112,35 +112,6 @@ class CurvaturePipelineResult(NamedTuple):
 def _max_criterion(V, F):
     _, c = conical_criterion(V, F)
     return float(np.abs(c).max()) if len(c) else 0.0
-
-
-class _Frame(NamedTuple):
-    """Centre and scale the computation runs in: ``x → (x − centre) / scale``."""
-
-    centre: np.ndarray
-    scale: float
-
-    def to(self, X):
-        """``(X − centre) / scale`` snapped to a grid of ``SNAP`` (a millionth of the size, far below any modelling
-        tolerance), so that the rounding of other units or of a far placement cannot change the traced network."""
-        return np.round(self.unsnapped(X) / SNAP) * SNAP
-
-    def unsnapped(self, X):
-        """``(X − centre) / scale`` as computed: for the fields fallback (:func:`_fields_candidate`), whose candidate
-        changes less with the rounding of a far placement (about 1e-10 of the size at every vertex) than with the
-        whole grid step by which :meth:`to` moves the few vertices whose rounding straddles a grid line (the dome of
-        the tests: 101 or 102 panels with the placement, snapped; 102 at every placement, unsnapped)."""
-        return (np.asarray(X, np.float64) - self.centre) / self.scale
-
-    def back(self, X):
-        return np.asarray(X, np.float64) * self.scale + self.centre
-
-
-def _frame(V) -> _Frame:
-    """The bounding box's centre and largest extent: every model maps to the same unit-size, centred mesh."""
-    lo, hi = V.min(axis=0), V.max(axis=0)
-    ext = float((hi - lo).max())
-    return _Frame(0.5 * (lo + hi), ext if ext > 0 and math.isfinite(ext) else 1.0)
 
 
 def _fold_mask(h) -> np.ndarray:
@@ -303,7 +274,11 @@ def _fields_candidate(V, T, hn, why: str) -> _Cand | None:
     the "auto" search of six costs several times more, tens of seconds on a large surface at coarse panels),
     repaired), or ``None`` when it cannot be built."""
     try:
-        fc = candidate_mesh((V, T), hn, field="principal", boundary="snap", repair=True, name="mesh")
+        # in the network's frame already, as computed: snapped, the rounding of a far placement straddled a grid line
+        # at a few vertices, which moved them by a whole grid step (the dome of the tests: 101 or 102 panels with the
+        # placement, snapped; 102 at every placement, unsnapped)
+        V, T, hn, _, cons = checked_inputs((V, T), hn, "principal", 0.1, "snap", None, None, "mesh")
+        fc = framed_candidate(V, T, hn, IDENTITY, "principal", boundary="snap", cons=cons, repair=True)
     except (InputError, MeshError) as exc:
         log.info("curvature network: no fields fallback (%s)", exc)
         return None
@@ -370,7 +345,7 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     h = check_number(panel_size, "panel_size", 0, above=True)
     T0 = F0 if F0.shape[1] == 3 else triangulate(F0)[0]
     check_target_fits(V0, T0, h, "panel_size")  # in the units given
-    fr = _frame(V0)
+    fr = bounding_frame(V0, SNAP)
     warnings: list[str] = []
     hn = max(round(h / fr.scale / SNAP), 1) * SNAP  # on the same grid: the same panel size in every unit
     Vn = fr.to(V0)
