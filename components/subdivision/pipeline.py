@@ -36,6 +36,7 @@ import numpy as np
 from components.core.checks import boundary_gap_warning, check_choice, check_int, check_number, validate_mesh
 from components.core import progress
 from components.core.errors import InputError
+from components.core.frame import Frame
 from components.core.measures import (corner_angles, max_quad_planarity, nonconvex_faces, quad_planarity,
                                       warping_height)
 from components.core.mesh import edge_topology, triangulate
@@ -114,25 +115,35 @@ class _Candidate(NamedTuple):
 
 
 def _candidate(V, T, given, faces, layout, levels, max_faces, spread_boundary, timings) -> _Candidate:
-    """Coarse net (``given`` or automatic) → Catmull-Clark → pulled onto the surface ``(V, T)``."""
+    """Coarse net (``given`` or automatic) → Catmull-Clark → pulled onto the surface ``(V, T)``.
+
+    All three run on the surface centred, at unit size and snapped to a grid (:func:`_frame`), so the same surface
+    in other units gives them the same numbers bit for bit (a pull's closest points on a ridge are ties that the
+    rounding of other units once broke another way: rhinovault_mesh_0 at 60 panels got candidates 1.7e-3 of its size
+    apart in mm and m); the candidate is mapped back to model units."""
     warnings: list[str] = []
+    frame = _frame(V)
+    Vf = frame.to(V)
     t = time.perf_counter()
     if given is None:
-        center, size = _frame(V)
-        net = coarse_net((V - center) / size, T, faces=faces, layout=layout, levels=levels)
-        Vc, Fc, used = net.V * size + center, net.Q, net.layout
+        net = coarse_net(Vf, T, faces=faces, layout=layout, levels=levels)
+        Cf, Fc, used = net.V, net.Q, net.layout
+        Vc = frame.back(Cf)
         warnings += net.warnings
     else:
         (Vc, Fc), used = given, "given"
+        Cf = frame.to(Vc)
     timings["coarse"] = timings.get("coarse", 0.0) + time.perf_counter() - t
     t = time.perf_counter()
-    Vs, Qs, _ = subdivided_mesh(Vc, Fc, levels=levels, boundary="crease", max_faces=max_faces, name="coarse")
+    Vs, Qs, _ = subdivided_mesh(Cf, Fc, levels=levels, boundary="crease", max_faces=max_faces, name="coarse")
     timings["subdivide"] = timings.get("subdivide", 0.0) + time.perf_counter() - t
     t = time.perf_counter()
     if spread_boundary:
-        pulled = pulled_subdivision(Vs, Qs, Vc, V, T, name="candidate", reference_name="surface")
+        pulled = pulled_subdivision(Vs, Qs, Cf, Vf, T, name="candidate", reference_name="surface")
     else:
-        pulled = pulled_vertices(Vs, Qs, V, T, boundary="boundary", name="candidate", reference_name="surface")
+        pulled = pulled_vertices(Vs, Qs, Vf, T, boundary="boundary", name="candidate", reference_name="surface")
+    pulled = pulled._replace(V=frame.back(pulled.V), distances_before=pulled.distances_before * frame.scale,
+                             distances_after=pulled.distances_after * frame.scale)
     timings["pull"] = timings.get("pull", 0.0) + time.perf_counter() - t
     return _Candidate((Vc, Fc), pulled.V, Qs, used, faces, pulled, warnings + list(pulled.warnings))
 
@@ -252,11 +263,12 @@ def _verdict_warnings(h: PanelHealth, planarity: float, tolerance: float, planar
     return out
 
 
-def _frame(V) -> tuple[np.ndarray, float]:
-    """Bounding-box centre and diagonal of the surface (the diagonal 1 for a single point)."""
+def _frame(V) -> Frame:
+    """The surface centred on its bounding box, its diagonal the unit (1 for a single point), snapped to the grid of
+    :mod:`components.core.frame`."""
     center = 0.5 * (V.min(axis=0) + V.max(axis=0))
     size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) or 1.0
-    return center, size
+    return Frame(center, size)
 
 
 def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, faces: int = 36,
