@@ -133,6 +133,16 @@ speed swung 30 % within the hour, so only CPU seconds and counts are compared):
   candidates both runs finished (the second was stopped there) 112 → 111 converged in 239 → 241 CPU s (wein99_opt at
   60 panels stalled).
 
+Session 22 (another 2-core machine, AMD EPYC), ``--real 300 --placements x1 x1000 +5e6`` after the strategy ran on
+the surface centred, at unit size and snapped to a grid (components/core/frame.py) and the planarizer snapped its
+normalized coordinates (components/planarize/problem.py ``SNAP``): 118 of 126 converged and healthy; ×1 and ×1000
+give identical rows (panels, max planarity, verdict, coverage) on 41 of 42 (the tube: converged in 10.2 s at ×1,
+stopped by the 10 s budget at ×1000, a matter of the machine's speed), against 37 of 42 with the code before on
+this machine (five meshes another panel count or planarity in mm: rhinovault_mesh_0 352 → 355 panels);
++5e6: 21 identical rows, 7 with another panel count or verdict (the tube; botanic-garden-bubble, flower_cmc1,
+pillow_1, heart, wein99_opt_del2bdry and lilium another panel count, each converged and healthy as at ×1): a far
+placement rounds the input itself by up to 1e-10 of its size, more than a few grid steps' worth on some vertices.
+
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
 - Guard rows *added* to a factored system solved with its factor bordered by them (a Schur complement of up to 64
