@@ -305,13 +305,13 @@ def _attempt(prep, ref, given, opts, mesh_name, t0, lift_rows: bool, relax_floor
     run = iterate(prob, panel_guard(prob), t0)
     guard = run.guard  # its relative bounds may have been relaxed while the guard held the restore phase
     final = final_state(run)
-    X = final.X * prob.scale + prob.center
+    # a vertex the solver did not move is returned as given (not as its snapped copy, problem.SNAP), to the last
+    # bit: an already planar mesh comes back as it came; the others at the solver's solution
+    X = np.where(np.any(final.X != prob.X0, axis=1)[:, None], final.X * prob.scale + prob.center, prep.V)
     X[prob.fixed] = prep.V[prob.fixed]  # exactly unmoved
     m = _measured(prob, guard, run, X, ref, given, prep.offset)
     if not m.verdict.healthy:  # back off toward the input, to the healthy state nearest the result (if any)
-        X0 = prob.X0 * prob.scale + prob.center
-        X0[prob.fixed] = prep.V[prob.fixed]
-        back = healthy_backoff(prob, guard, given, X0, X, prep.offset)
+        back = healthy_backoff(prob, guard, given, prep.V, X, prep.offset)
         if back is not None:
             X, t = back
             lost = "; ".join(line for line in m.verdict.violations if "planarity tolerance" not in line)

@@ -77,3 +77,15 @@ def test_a_noisy_grid_on_a_reference_gives_the_same_numbers_in_any_unit(scale):
     # measured on the result in model units: equal to its last digits
     assert res.max_planarity == pytest.approx(base.max_planarity, rel=1e-9)
     assert res.worst_corner_angle == pytest.approx(base.worst_corner_angle, rel=1e-9)
+
+
+def test_an_already_planar_mesh_comes_back_as_it_was():
+    """The solver runs on snapped coordinates (problem.SNAP) but returns its move added to the input as given: a
+    planar mesh (no iteration) comes back to its last bits but the centring's rounding, not moved by the snap
+    (before: 1e-9 of its size)."""
+    V, F = quad_grid(12, 9, 8.4, 6.3, height=lambda x, y: 0.05 * x + 0.02 * y)
+    for scale, offset in ((1.0, 0.0), (1e3, 0.0), (1.0, 5e6)):
+        X = V * scale + offset
+        res = planarize((X, F))
+        assert res.converged and res.iterations == 0
+        assert np.abs(res.mesh[0] - X).max() <= 4 * np.finfo(float).eps * np.abs(X).max()
