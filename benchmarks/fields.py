@@ -190,6 +190,17 @@ scipy #15921; components.core.parallel.ThreadOwned now drops it there): the 200k
 on the first one's minimum-degree order (1.73 → 1.51 s each at 200k, not bit-identical: other candidates). Not
 adopted.
 
+Session 22 (another 2-core AMD EPYC machine), after the strategy ran on the surface centred, at unit size and
+snapped (components/core/frame.py) and the planarizer snapped its normalized coordinates, the code before and after
+one run after the other: before 20k 3.74 s (field 1.3, param 0.3, extract 0.9, planarize 1.3; 1406 faces, 9.12e-5),
+200k 35.8 s (field 12.6, param 3.8, extract 6.1, planarize 12.8; 12451 faces, 9.33e-5), 1.06 GB; after 20k 2.92 and
+3.27 s (field 1.1-1.2, param 0.3, extract 0.7-0.8, planarize 0.8-1.0; the same 1406 faces, 9.16e-5, healthy,
+coverage 1.000), 200k 32.8 and 32.3 s (field 11.9-12.1, param 3.5, extract 5.3-5.5, planarize 11.0-11.4; 12452
+faces: the snapped frame moved one panel, 9.27e-5, healthy, coverage 1.000), 1.06-1.08 GB. No step does less work
+than before (the planarization takes a slightly other path from the snapped coordinates); the difference is within
+this machine's swing (by hand the same 20k call ran 2.8-3.5 s with either code). 20k stays at the 3 s line, 200k
+2.2x from 15 s.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
