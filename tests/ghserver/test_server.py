@@ -237,3 +237,17 @@ def test_serve_logs_its_shutdown_on_sigterm():
     lines = out.splitlines()
     assert any("stopping (SIGTERM)" in line for line in lines), out
     assert lines[-1].endswith("stopped"), out
+
+
+def test_a_strategy_over_hops_gives_the_same_panels_in_mm_and_m(live_server):
+    """Through the wire in mm and m (double-precision vertices, as Rhino 7 and later send meshes): the same panels up
+    to the scale, as on arrays (components.core.frame snaps the few ulps of other units away)."""
+    from components.surfaces.samples import sample_mesh
+
+    V, T, _ = sample_mesh("wave", 16)
+    c = Client(live_server.url)
+    out = [c.call("subdivision/pq_from_subdivision", surface=(V * s, T), faces=24, levels=1) for s in (1.0, 1000.0)]
+    (Xa, Fa), (Xb, Fb) = out[0].planarized, out[1].planarized
+    assert np.array_equal(Fa, Fb) and len(Fa) > 0
+    assert np.abs(Xb / 1000.0 - Xa).max() <= 1e-12 * np.ptp(V, axis=0).max()
+    assert (out[0].converged, out[0].healthy) == (out[1].converged, out[1].healthy) == (True, True)
