@@ -142,6 +142,10 @@ this machine (five meshes another panel count or planarity in mm: rhinovault_mes
 +5e6: 21 identical rows, 7 with another panel count or verdict (the tube; botanic-garden-bubble, flower_cmc1,
 pillow_1, heart, wein99_opt_del2bdry and lilium another panel count, each converged and healthy as at ×1): a far
 placement rounds the input itself by up to 1e-10 of its size, more than a few grid steps' worth on some vertices.
+Found late and left open: libigl's inspired_mesh at 1600 panels (tests/components/test_pipelines.py) got another
+best-ranked candidate from the snapped frame (1638 panels instead of 1672), which stalls at 1.17e-3 through all six
+planarizer attempts (19.5 s) before the second candidate converges (1716 panels, 9.0e-5, healthy): 23 s instead of
+2 s. The first candidate gets the whole budget; giving it a share when others are ranked behind it would bound this.
 
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:

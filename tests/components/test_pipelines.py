@@ -123,7 +123,10 @@ def test_other_samples_planarize(name):
 def test_real_meshes_planarize(path, quads):
     V, F = read_mesh(data_file(path))
     h = target_for(V, F, quads)
-    res = pq_from_conjugate_field((V, F), h, time_budget=20.0)
+    # a budget no machine reaches: the quality, not the speed, is tested here (timings: benchmarks/). inspired_mesh
+    # at 1600 panels takes ~23 s: its best-ranked candidate stalls at 1.2e-3 through every planarizer attempt and
+    # the second one converges (noted in benchmarks/convergence.py, session 22)
+    res = pq_from_conjugate_field((V, F), h, time_budget=120.0)
     assert res.planarized_max_planarity <= 1e-4
     Vp, Fp = res.planarized
     E = np.concatenate([np.stack([Fp[:, i], Fp[:, (i + 1) % Fp.shape[1]]], 1) for i in range(Fp.shape[1])])
