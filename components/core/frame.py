@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["GRID", "LENGTH_BITS", "IDENTITY", "Frame", "bounding_frame", "snapped_length"]
+__all__ = ["GRID", "LENGTH_BITS", "IDENTITY", "Frame", "bounding_frame", "snapped", "snapped_length"]
 
 GRID = 2.0 ** -30  # coordinates snapped to this fraction of the model's largest extent
 LENGTH_BITS = 30  # lengths (a panel size) rounded to this many significant bits
@@ -46,7 +46,7 @@ class Frame(NamedTuple):
 
     def to(self, X) -> np.ndarray:
         """``(X − centre) / scale`` snapped to the grid."""
-        return np.round(self.unsnapped(X) / self.grid) * self.grid
+        return snapped(self.unsnapped(X), self.grid)
 
     def back(self, X) -> np.ndarray:
         """Model coordinates of frame coordinates ``X``."""
@@ -71,6 +71,16 @@ def bounding_frame(V, grid: float = GRID) -> Frame:
     lo, hi = V.min(axis=0), V.max(axis=0)
     ext = float((hi - lo).max())
     return Frame(0.5 * (lo + hi), ext if ext > 0 and math.isfinite(ext) else 1.0, grid)
+
+
+def snapped(X, grid: float = GRID) -> np.ndarray:
+    """``X`` rounded to the nearest multiple of ``grid``: values a few ulps apart become equal (but where they
+    straddle a grid line).
+
+    >>> snapped(np.array([0.1, 0.1 * (1 + 1e-15)]), 2.0 ** -20).tolist()
+    [0.10000038146972656, 0.10000038146972656]
+    """
+    return np.round(X / grid) * grid
 
 
 def snapped_length(x: float, bits: int = LENGTH_BITS) -> float:

@@ -28,9 +28,9 @@ from components.core.checks import boundary_gap_warning, check_mesh, check_numbe
 from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
 from components.core.mesh import triangulate
+from components.core.frame import IDENTITY, bounding_frame
 from components.core.types import Integers, Mesh, Texts, Vectors
 from components.fields.candidate import candidate_quality, checked_inputs, framed_candidate
-from components.core.frame import IDENTITY, bounding_frame
 from components.metrics.health import face_health, shape_healthy
 from components.planarize.planarizer import planarize_mesh
 

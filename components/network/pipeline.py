@@ -277,8 +277,8 @@ def _fields_candidate(V, T, hn, why: str) -> _Cand | None:
         # in the network's frame already, as computed: snapped, the rounding of a far placement straddled a grid line
         # at a few vertices, which moved them by a whole grid step (the dome of the tests: 101 or 102 panels with the
         # placement, snapped; 102 at every placement, unsnapped)
-        V, T, hn, _, cons = checked_inputs((V, T), hn, "principal", 0.1, "snap", None, None, "mesh")
-        fc = framed_candidate(V, T, hn, IDENTITY, "principal", boundary="snap", cons=cons, repair=True)
+        V, T, hn, alignment, cons = checked_inputs((V, T), hn, "principal", 0.1, "snap", None, None)
+        fc = framed_candidate(V, T, hn, IDENTITY, "principal", alignment, "snap", cons, repair=True)
     except (InputError, MeshError) as exc:
         log.info("curvature network: no fields fallback (%s)", exc)
         return None

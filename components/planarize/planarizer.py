@@ -271,8 +271,9 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
         verdict.warnings.append(
             f"closeness: the panel-health guard held the planarization at closeness weight {opts.closeness_weight:g}; "
             + (f"planarity was restored at {run.relaxed_to * opts.closeness_weight:.3g} and not optimized back "
-               f"(mean closeness {float(d[used].mean()) / prob.scale:.3g} × the mean edge): the optimize phase, which pulls the planar mesh back "
-               "toward the surface, found no step or was not run (optimize_iterations 0, or the time budget spent)"
+               f"(mean closeness {float(d[used].mean()) / prob.scale:.3g} × the mean edge): the optimize phase, "
+               "which pulls the planar mesh back toward the surface, found no step or was not run "
+               "(optimize_iterations 0, or the time budget spent)"
                if run.converged else
                f"relaxing it to {run.relaxed_to * opts.closeness_weight:.3g} did not reach the tolerance either"))
     if cut_by is not None and (out_of_time or run.stop_reason.startswith("time budget")):  # the deadline mattered

@@ -26,6 +26,7 @@ from scipy.spatial import cKDTree
 
 from components.core.checks import check_choice, check_int, check_number, check_points
 from components.core.conformal import cached_boundary_loops
+from components.core.frame import snapped
 from components.core.measures import quad_planarity, unit, warping_height
 from components.core.mesh import (Corners, boundary_loops, edge_topology, face_corners, face_normals, face_sizes,
                                   triangulate)
@@ -42,7 +43,10 @@ FAIRNESS_MODES = ("polylines", "laplacian")
 CONICAL_TOLERANCE = 1e-6  # radians, criterion ω1 − ω2 + ω3 − ω4 when the conical goal is on
 OPT_ITERATIONS = 20  # optimize phase: default iteration cap
 _ON_EDGE = 1e-9  # a closest point with a barycentric coordinate under this is on the reference's edge (a tie)
-SNAP = 2.0 ** -24  # the solver's normalized coordinates (mean edges about the mean vertex) are snapped to this grid
+# the solver's normalized coordinates (mean edges about the mean vertex) are snapped to this grid: the same mesh in
+# other units (a few ulps apart after the normalization) gives the solver the same numbers bit for bit, so the same
+# steps and result up to scale
+SNAP = 2.0 ** -24
 _NORMAL_STIFFNESS = 20.0  # closeness (with a reference): distance to its tangent plane costs 20·closeness_weight
 _SHARP_TURN = math.radians(40)  # a boundary vertex turning more than this (at two scales) is a corner
 _STAIR_SHARE = 0.25  # a reference boundary loop turning by over 40° at more than this share of its vertices is a
@@ -273,11 +277,11 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
     E = topo.E
     center = V.mean(axis=0)
     scale = float(np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1).mean())
-    X0 = _snapped((V - center) / scale)
+    X0 = snapped((V - center) / scale, SNAP)
     XR = NR = TR = ref_index = ref_loops = None
     if reference is not None:
         Vr, Fr = reference
-        XR = _snapped((Vr - center) / scale)
+        XR = snapped((Vr - center) / scale, SNAP)
         TR, _ = triangulate(Fr)
         NR = face_normals(XR, TR)
         ref_index = TriangleIndex(XR, TR, name="reference")
@@ -313,12 +317,6 @@ def setup_problem(V, F, reference, opts: Options, mesh_name: str = "mesh") -> Pr
 
 # ----------------------------------------------------------------------------------------------
 # vertex roles: fixed / sliding / free
-
-
-def _snapped(X: np.ndarray) -> np.ndarray:
-    """Normalized coordinates on a grid of ``SNAP`` mean edges: the same mesh in other units (a few ulps apart after
-    the normalization) gives the solver the same numbers bit for bit, so the same steps and result up to scale."""
-    return np.round(X / SNAP) * SNAP
 
 
 def _vertex_roles(V, F, X0, ref_loops, opts, scale, corners, mesh_name, warnings):

@@ -264,8 +264,8 @@ def _verdict_warnings(h: PanelHealth, planarity: float, tolerance: float, planar
 
 
 def _frame(V) -> Frame:
-    """The surface centred on its bounding box, its diagonal the unit (1 for a single point), snapped to the grid of
-    :mod:`components.core.frame`."""
+    """The surface's frame (:class:`components.core.frame.Frame`, whose ``to`` snaps to its grid): centred on the
+    bounding box, the box's diagonal the unit (1 for a single point)."""
     center = 0.5 * (V.min(axis=0) + V.max(axis=0))
     size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) or 1.0
     return Frame(center, size)
