@@ -34,7 +34,7 @@ of an edge at ×1, 0.070 at ×1000; both converged).
 
 Session 9, on another machine (AVX-512): the same code converged on 22 of the 24 saved candidates and on 13 of 16 more
 (seeds 4-7 × 8k, 20k × ×1, +5e6) — which run reaches the tolerance flips with the CPU's round-off. With the
-planarizer's extra runs (closeness relaxed less or not at all, components/planarize/planarizer.py ``_ATTEMPTS``):
+planarizer's extra runs (closeness relaxed less or not at all, components/planarize/planarizer.py ``RUNS``):
 23 of 24 and 15 of 16; a case that needs them costs up to half the time budget (8k seed 5 ×1: 12 s).
 
 Session 10 (same machine), ``--saved``: releasing the guard rows of far-moving vertices (components/planarize/step.py
@@ -146,6 +146,16 @@ Found late and left open: libigl's inspired_mesh at 1600 panels (tests/component
 best-ranked candidate from the snapped frame (1638 panels instead of 1672), which stalls at 1.17e-3 through all six
 planarizer attempts (19.5 s) before the second candidate converges (1716 panels, 9.0e-5, healthy): 23 s instead of
 2 s. The first candidate gets the whole budget; giving it a share when others are ranked behind it would bound this.
+
+Session 23 (session 22's machine), each candidate gets the planarizer's first run (components/planarize/planarizer.py
+``RUNS``) before any gets the other five (components/fields/pipeline.py ``_planarized_in_turn``). Logged per run on
+``--real 60 300`` and inspired_mesh at 1600 panels (60 s budget), the code before and after one run after the
+other. Before, where the best-ranked candidate's first run failed, a later run of it converged 3 times (wein99_opt
+at 60 and 300, wein99_opt_del2bdry at 300) and another candidate 3 times (wein99 at 60, the tube at 300, inspired).
+After: 73 → 76 of 85 converged and healthy (gnet1, pillow_1 and wein99_diag at 60 converge with their third to
+fifth candidates; none lost), 213 → 170 s in all; inspired_mesh 17.1 → 5.4 s (1716 panels both), the tube at 300
+10.3 → 2.9 s, wein99 at 60 10.8 → 3.1 s. The three that a later run converged now converge with another candidate
+(second or fourth; 72 → 69, 274 → 301 and 323 → 304 panels).
 
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:

@@ -109,7 +109,6 @@ class PlanarizeResult(NamedTuple):
     warnings: list[str]
 
 
-@single_blas_thread()  # sparse factorizations and the reduced solves' dense products: see components.core.blas
 def planarize_mesh(
     V, F, reference=None, *, closeness_weight: float = 1.0, start_weight: float = 0.0,
     fairness_weight: float = 0.01, fairness_mode: str = "polylines", edge_length_weight: float = 0.0,
@@ -212,17 +211,27 @@ def planarize_mesh(
     InputError
         Negative or non-finite weights, unknown modes, anchors out of range, a bound out of its range.
     """
+    return planarize_runs(
+        RUNS, V, F, reference, closeness_weight=closeness_weight, start_weight=start_weight,
+        fairness_weight=fairness_weight, fairness_mode=fairness_mode, edge_length_weight=edge_length_weight,
+        target_edge_length=target_edge_length, area_weight=area_weight, target_area=target_area,
+        conical_weight=conical_weight, boundary=boundary, anchors=anchors, anchor_points=anchor_points,
+        tolerance=tolerance, absolute_tolerance=absolute_tolerance, max_iterations=max_iterations,
+        time_budget=time_budget, angle_guard=angle_guard, relax=relax, optimize_iterations=optimize_iterations,
+        mesh_name=mesh_name, min_angle=min_angle, min_edge_ratio=min_edge_ratio, min_area_ratio=min_area_ratio,
+        min_coverage=min_coverage, relaxed_guard=relaxed_guard)
+
+
+@single_blas_thread()  # sparse factorizations and the reduced solves' dense products: see components.core.blas
+def planarize_runs(runs: tuple, V, F, reference=None, *, mesh_name: str = "mesh", **options) -> PlanarizeResult:
+    """:func:`planarize_mesh` (the same keyword options) trying only the solver runs ``runs`` (a tuple of
+    :data:`RUNS`' items, in turn while none converged healthy, as ``planarize_mesh`` tries them all). The conjugate
+    strategy spreads the runs over its candidates: the first run of each candidate before the other runs of any
+    (components/fields/pipeline.py)."""
     t0 = time.perf_counter()
     V, F = validate_mesh(V, F, name=mesh_name, allow_degenerate=True, manifold=False)  # fully checked in _solved
-    opts = checked_options(
-        len(V), closeness_weight=closeness_weight, start_weight=start_weight, fairness_weight=fairness_weight,
-        fairness_mode=fairness_mode, edge_length_weight=edge_length_weight, target_edge_length=target_edge_length,
-        area_weight=area_weight, target_area=target_area, conical_weight=conical_weight, boundary=boundary,
-        anchors=anchors, anchor_points=anchor_points, tolerance=tolerance, absolute_tolerance=absolute_tolerance,
-        max_iterations=max_iterations, time_budget=time_budget, angle_guard=angle_guard, relax=relax,
-        optimize_iterations=optimize_iterations, min_angle=min_angle, min_edge_ratio=min_edge_ratio,
-        min_area_ratio=min_area_ratio, min_coverage=min_coverage, relaxed_guard=relaxed_guard)
-    return _solved(V, F, reference, "reference", opts, mesh_name, t0)
+    opts = checked_options(len(V), **options)
+    return _solved(V, F, reference, "reference", opts, mesh_name, t0, tuple(runs))
 
 
 # The solver's runs, tried in turn while none has converged healthy and the time budget holds another run as long as
@@ -235,12 +244,12 @@ def planarize_mesh(
 # costs one run, as before. (Until 2026-12 only half the budget was used: the wave sample at ×1000 converges with the
 # sixth run only, which started past half of a 10 s budget on some days and not on others: the result depended on the
 # machine's speed.)
-_ATTEMPTS = ((True, 0.01), (False, 0.01), (True, 1.0), (False, 1.0), (True, 0.1), (False, 0.1))
+RUNS = ((True, 0.01), (False, 0.01), (True, 1.0), (False, 1.0), (True, 0.1), (False, 0.1))
 
 
-def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeResult:
+def _solved(V, F, reference, reference_name, opts, mesh_name, t0, runs: tuple = RUNS) -> PlanarizeResult:
     """Run the solver on a mesh (shape-checked), a reference (``(Vr, Fr)`` or ``None``, checked here as
-    ``reference_name``) and checked options; ``t0``: the call's start."""
+    ``reference_name``) and checked options, trying ``runs`` (:data:`RUNS`); ``t0``: the call's start."""
     budget, cut_by = deadline.capped(opts.time_budget - (time.perf_counter() - t0))
     if cut_by is not None:  # the caller's deadline comes first: answer in time with the best state
         opts = opts._replace(time_budget=time.perf_counter() - t0 + budget)
@@ -256,7 +265,7 @@ def _solved(V, F, reference, reference_name, opts, mesh_name, t0) -> PlanarizeRe
         return _triangles_only(V, F, prep, ref, opts, t0)
     best, shortest = None, math.inf
     out_of_time = False  # a further run was left out for the budget
-    for lift_rows, relax_floor in _ATTEMPTS:
+    for lift_rows, relax_floor in runs:
         if best is not None and (_succeeded(best) or time.perf_counter() - t0 + shortest > opts.time_budget):
             out_of_time = not _succeeded(best)
             break

@@ -124,8 +124,8 @@ def test_real_meshes_planarize(path, quads):
     V, F = read_mesh(data_file(path))
     h = target_for(V, F, quads)
     # a budget no machine reaches: the quality, not the speed, is tested here (timings: benchmarks/). inspired_mesh
-    # at 1600 panels takes ~23 s: its best-ranked candidate stalls at 1.2e-3 through every planarizer attempt and
-    # the second one converges (noted in benchmarks/convergence.py, session 22)
+    # at 1600 panels takes ~5 s: its best-ranked candidate stalls at 1.2e-3 in the planarizer's first run and the
+    # second candidate converges in its first (benchmarks/convergence.py, sessions 22 and 23)
     res = pq_from_conjugate_field((V, F), h, time_budget=120.0)
     assert res.planarized_max_planarity <= 1e-4
     Vp, Fp = res.planarized
