@@ -194,7 +194,9 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     if len(cand.F) == 0:
         raise InputError("target_length", f"{target:g} is too large: no panel fits on the surface")
     t = time.perf_counter()
+    progress.report(0.5, "planarize", until=0.95)  # (reported here: the owner's frame names the stages)
     cands, outs = _planarized_in_turn(cand, surface, hn, tol, budget, closeness_weight, planarize, t)
+    progress.report(0.95, "panel health")
     k = max(range(len(outs)), key=lambda i: outs[i].rank)  # the best outcome (the better-ranked candidate of a tie)
     cand, out = cands[k], outs[k]
     if k:
@@ -233,8 +235,8 @@ def _planarized_in_turn(first, surface, hn: float, tol: float, budget: float, cl
         c = cands[i]
         warnings = list(c.warnings)
         left = budget - (time.perf_counter() - t0) if i or outs else budget
-        planarized = _planarized(c.V, c.F, surface, tol, left, closeness_weight, warnings, runs=runs) if planarize else None
-        progress.report(0.95, "panel health")
+        planarized = (_planarized(c.V, c.F, surface, tol, left, closeness_weight, warnings, runs=runs)
+                      if planarize else None)
         got = _judged(c, hn, surface, planarized, planarize, tol, warnings)
         if i == len(outs):
             outs.append(got)
@@ -246,7 +248,6 @@ def _planarized_in_turn(first, surface, hn: float, tol: float, budget: float, cl
 
     nxt = first
     while nxt is not None and (nxt is first or more()):  # building the next candidate may use up the budget
-        progress.report(0.5, "planarize", until=0.95)
         cands.append(nxt)
         judge(len(cands) - 1, RUNS[:1])
         nxt = nxt.alternative() if more() and not outs[-1].ok and nxt.alternative is not None else None
