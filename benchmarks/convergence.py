@@ -155,7 +155,11 @@ at 60 and 300, wein99_opt_del2bdry at 300) and another candidate 3 times (wein99
 After: 73 → 76 of 85 converged and healthy (gnet1, pillow_1 and wein99_diag at 60 converge with their third to
 fifth candidates; none lost), 213 → 170 s in all; inspired_mesh 17.1 → 5.4 s (1716 panels both), the tube at 300
 10.3 → 2.9 s, wein99 at 60 10.8 → 3.1 s. The three that a later run converged now converge with another candidate
-(second or fourth; 72 → 69, 274 → 301 and 323 → 304 panels).
+(second or fourth; 72 → 69, 274 → 301 and 323 → 304 panels). Then ``--real 300 --placements x1 x1000 +5e6``: 118 →
+120 of 126 converged and healthy (left: Costa refused, camelhead unhealthy at every placement, said so), identical
+rows at ×1 and ×1000 on 42 of 42 (the tube no longer runs into the 10 s budget), another panel count at +5e6 on 6
+(botanic-garden-bubble, flower_cmc1, pillow_1, heart, wein99_opt_del2bdry, lilium; each converged and healthy); the
+default sweep 24 of 24, ×1 and ×1000 identical on all 8 pairs.
 
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
