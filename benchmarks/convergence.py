@@ -159,7 +159,11 @@ fifth candidates; none lost), 213 → 170 s in all; inspired_mesh 17.1 → 5.4 s
 120 of 126 converged and healthy (left: Costa refused, camelhead unhealthy at every placement, said so), identical
 rows at ×1 and ×1000 on 42 of 42 (the tube no longer runs into the 10 s budget), another panel count at +5e6 on 6
 (botanic-garden-bubble, flower_cmc1, pillow_1, heart, wein99_opt_del2bdry, lilium; each converged and healthy); the
-default sweep 24 of 24, ×1 and ×1000 identical on all 8 pairs.
+default sweep 24 of 24, ×1 and ×1000 identical on all 8 pairs. ``--real 60`` at ×1 and ×1000: 40 of 42 identical; the
+two that differ (free_negshell_marc_anet, M2_eq_quad2_orthoEqu) stop short in both units, healthy, their best state
+from a run cut by the 10 s budget at another point. Tried and not adopted: starting another planarization only while
+the time left holds the shortest one so far (as the planarizer does with its own runs): 42 of 42 identical, but
+gnet1, which converged with its third candidate in the last second of the budget, stopped short (70 → 68 of 84).
 
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
