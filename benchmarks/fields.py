@@ -201,6 +201,15 @@ than before (the planarization takes a slightly other path from the snapped coor
 this machine's swing (by hand the same 20k call ran 2.8-3.5 s with either code). 20k stays at the 3 s line, 200k
 2.2x from 15 s.
 
+Session 23 (session 22's machine), after the conjugate strategy gave every candidate the planarizer's first run
+before any its other runs (the benchmark's best-ranked candidates converge at their first run: the same results):
+20k 2.84 s (field 1.0, param 0.2, extract 0.7, planarize 0.9; 1406 faces, 9.16e-5, healthy), 200k 31.0 s (field
+11.4, param 3.3, extract 5.4, planarize 10.3; 12452 faces, 9.27e-5, healthy), peak 1.04 GB. The two-level field at
+200k (components/fields/parametrize.py ``TWO_LEVEL_FACES`` lowered to 150k, so the field comes from a 50k copy), seeds
+0-2, one after the other with the default: the field 12.8-14.9 → 7.2-9.1 s, but the planarization 7.9-16.2 →
+17.6-22.2 s (the coarse field's candidates planarize slower), end to end 30.3-41.3 → 36.2-41.9 s (this machine swung
+30 % within the hour); all six converged and healthy. Not adopted.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
