@@ -234,7 +234,7 @@ def _planarized_in_turn(first, surface, hn: float, tol: float, budget: float, cl
     def judge(i: int, runs: tuple):
         c = cands[i]
         warnings = list(c.warnings)
-        left = budget - (time.perf_counter() - t0) if i or outs else budget
+        left = budget - (time.perf_counter() - t0) if outs else budget  # (no outcome yet: the first call)
         planarized = (_planarized(c.V, c.F, surface, tol, left, closeness_weight, warnings, runs=runs)
                       if planarize else None)
         got = _judged(c, hn, surface, planarized, planarize, tol, warnings)
