@@ -434,6 +434,44 @@ def test_released_guard_rows_are_solved_with_the_factor_they_were_released_from(
     assert len(factored) == 2
 
 
+def test_the_face_sized_system_is_factored_by_ldlt_or_superlu_to_the_same_solution(monkeypatch):
+    """factor_spd: qdldl's LDLᵀ where it is installed, SuperLU without it; both solve the system of a planarizer
+    step (one or several right-hand sides) to round-off, and a singular system is damped, not refused; a whole
+    planarization gives the same result with either."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    import components.planarize.step as step_mod
+    from components.planarize.planarizer import planarize_mesh
+
+    assert step_mod.qdldl is not None  # a core dependency
+    V, F = _grid(8, bump=0.2)
+    prob, guard = _problem(V, F)
+    cur = _state(prob, guard, prob.X0)
+    sel = np.arange(0, len(prob.corners.v), 3)
+    J, r, _ = hard_rows(prob, cur.X, sel, guard.item_tgt[sel], guard.flip_normals)
+    Gb = inverse_metric(prob, soft_terms(prob, cur.X)[1], cur.tangents)
+    S = (step_mod.times_blocks(J, Gb) @ J.T + 1e-8 * sp.identity(J.shape[0])).tocsc()
+    B = np.random.default_rng(3).normal(size=(S.shape[0], 3))
+    exact = spla.spsolve(S, B)
+    ldlt = step_mod.factor_spd(S)
+    assert isinstance(ldlt, step_mod._LDL) and ldlt.shape == S.shape
+    assert np.abs(ldlt.solve(B) - exact).max() <= 1e-9 * np.abs(exact).max()
+    assert np.abs(ldlt.solve(B[:, 0]) - exact[:, 0]).max() <= 1e-9 * np.abs(exact).max()
+    singular = sp.csc_matrix(np.ones((3, 3)))
+    assert np.isfinite(step_mod.factor_spd(singular).solve(np.ones(3))).all()
+    Vw, Fw = quad_grid(6, 6, 6.0, 6.0, height=lambda x, y: 0.05 * x * y + 0.02 * x * x)
+    with_ldlt = planarize_mesh(Vw, Fw)
+    monkeypatch.setattr(step_mod, "qdldl", None)
+    lu = step_mod.factor_spd(S)
+    assert not isinstance(lu, step_mod._LDL)
+    assert np.abs(lu.solve(B) - exact).max() <= 1e-9 * np.abs(exact).max()
+    assert np.isfinite(step_mod.factor_spd(singular).solve(np.ones(3))).all()
+    with_lu = planarize_mesh(Vw, Fw)
+    assert with_ldlt.converged and with_lu.converged and with_ldlt.iterations == with_lu.iterations
+    assert np.abs(with_ldlt.mesh[0] - with_lu.mesh[0]).max() <= 1e-8 * np.ptp(Vw, axis=0).max()
+
+
 def test_a_reduced_solve_whose_residual_is_not_small_is_factored_anew(monkeypatch):
     import components.planarize.step as step_mod
 
