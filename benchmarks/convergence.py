@@ -165,6 +165,13 @@ from a run cut by the 10 s budget at another point. Tried and not adopted: start
 the time left holds the shortest one so far (as the planarizer does with its own runs): 42 of 42 identical, but
 gnet1, which converged with its third candidate in the last second of the budget, stopped short (70 → 68 of 84).
 
+Session 24 (another, slower 2-core machine), the planarizer's systems factored with qdldl's LDLᵀ instead of SuperLU
+(the same solutions to 1e-11; components/planarize/step.py ``factor_spd``), the code before and after one run after
+the other: ``--real 60 300`` 74 → 75 of 84 converged and healthy, 3:26 → 3:15 min (gnet1 at 60, the run cut by the
+10 s budget, now converges in it; the 4 other rows that differ stop short in both, healthy, cut at other points);
+``--real 300 --placements x1 x1000 +5e6`` 120 of 126 as in session 23, identical rows at ×1 and ×1000 on 42 of 42,
+the same 6 meshes with another panel count at +5e6 (each converged and healthy).
+
 Session 16 (another 2-core machine), ``--saved`` on the 75 saved candidates (the patches, the benchmark rows and the
 shared meshes at 300 panels), tried and not adopted:
 - Guard rows *added* to a factored system solved with its factor bordered by them (a Schur complement of up to 64

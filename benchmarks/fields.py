@@ -210,6 +210,15 @@ before any its other runs (the benchmark's best-ranked candidates converge at th
 17.6-22.2 s (the coarse field's candidates planarize slower), end to end 30.3-41.3 → 36.2-41.9 s (this machine swung
 30 % within the hour); all six converged and healthy. Not adopted.
 
+Session 24 (another 2-core machine, 10-30 % slower than session 23's and swinging within the hour), the planarizer's
+face-sized systems factored with qdldl's LDLᵀ instead of SuperLU (components/planarize/step.py ``factor_spd``;
+benchmarks/solvers.py), the code before and after one run after the other, best of 2: 20k 3.38 → 3.54 s (field
+1.2-1.3, param 0.2-0.3, extract 0.9, planarize 1.0 → 1.1: the machine's swing; alone, one after the other three times,
+this candidate's planarization takes 0.80-1.02 → 0.70-0.75 s), 200k 41.8 → 37.7 s (field 13.9-14.5, param 4.5,
+extract 6.7-7.1, planarize 15.6 → 11.6; the planarization alone 10.6-12.8 → 9.0-9.8 s), the same results (1406 and
+12452 faces, 9.16e-5 and 9.27e-5, healthy, coverage 1.000), peak 1.0 GB. On this machine the field, the
+parametrization and the extraction of the 200k row alone take 24-25 s: the 15 s needs them cheaper too.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
