@@ -39,6 +39,14 @@ reference every vertex starts at a vertex of the reference (a tie between the fa
 normal): 60² 2.99 → 2.54 s (25 → 21 iterations, mean closeness 0.071 → 0.077 edges); 200² 29.8 s not converged
 (1.38e-2, backed off to the last healthy state) → 27 s converged (9.6e-5, 13 iterations, closeness 0.108 edges).
 
+Session 24 (another, slower 2-core machine), ``--noisy-only --repeats 3``, SuperLU → qdldl's LDLᵀ for the face-sized
+systems (components/planarize/step.py ``factor_spd``), one run after the other: defaults 60² 0.128 → 0.150 s (4
+iterations and 4 factorizations both: the machine's swing), 200² 2.22 → 1.85 s (5 iterations, mean drift 0.175 edge,
+worst corner 85.9°, the same result); with the input as reference 60² 2.65 → 2.15 s (21 iterations, the same result),
+200² 27.2 → 26.6 s (converged both: 12 → 14 iterations, 9.03e-5 → 9.49e-5, closeness 0.113 → 0.103 edges: round-off
+sent the solver along another path). The default candidate rows: the same 12 iterations and result, 58 → 56
+factorizations.
+
 Usage: ``python benchmarks/planarize.py [--repeats 3] [--full] [--skip-100k] [--noisy-only] [--geometrylab PATH]
 [--candidates N ...] [--candidate-npz PATH ...] [--candidate-budget S] [--candidates-only]``
 """
