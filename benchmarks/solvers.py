@@ -121,6 +121,11 @@ def _embedded_back(y: np.ndarray, n: int, complex_: bool) -> np.ndarray:
     return y[:n] + 1j * y[n:] if complex_ else y
 
 
+def _difference(x: np.ndarray, y: np.ndarray) -> float:
+    """The largest difference of two solutions relative to the largest entry of the first."""
+    return float(np.abs(x - y).max() / np.abs(x).max())
+
+
 def _time_family(A: sp.csc_matrix, kwargs: dict, repeat: int) -> tuple:
     """``(SuperLU factor s, solve s, LDLᵀ factor s, solve s, CHOLMOD factor s, solve s, LDLᵀ / CHOLMOD relative
     difference to SuperLU)``, NaN for a solver that is not installed."""
@@ -131,7 +136,7 @@ def _time_family(A: sp.csc_matrix, kwargs: dict, repeat: int) -> tuple:
     rng = np.random.default_rng(0)
     b = rng.standard_normal(A.shape[0]) + (1j * rng.standard_normal(A.shape[0]) if np.iscomplexobj(A) else 0.0)
     R, rb = _embedded(A, b)
-    nan4 = (np.nan,) * 3
+    missing = (np.nan,) * 3  # a solver that is not installed: factor s, solve s, difference
     with single_blas_thread():
         t_lu, lu = _cpu_best(lambda: splu(A, **kwargs), repeat)
         t_lus, x = _cpu_best(lambda: lu.solve(b), repeat)
@@ -139,23 +144,23 @@ def _time_family(A: sp.csc_matrix, kwargs: dict, repeat: int) -> tuple:
         try:
             import qdldl
         except ImportError:
-            out += nan4
+            out += missing
         else:
             t_q, q = _cpu_best(lambda: qdldl.Solver(R), repeat)
             t_qs, y = _cpu_best(lambda: q.solve(rb), repeat)
             y = _embedded_back(y, A.shape[0], np.iscomplexobj(A))
-            out += [t_q, t_qs, float(np.abs(x - y).max() / np.abs(x).max())]
+            out += [t_q, t_qs, _difference(x, y)]
         try:
             from cholespy import CholeskySolverD, MatrixType
         except ImportError:
-            return (*out, *nan4)
+            return (*out, *missing)
         C = R.tocoo()
         rows, cols = C.row.astype(np.int32), C.col.astype(np.int32)
         t_ch, ch = _cpu_best(lambda: CholeskySolverD(C.shape[0], rows, cols, C.data, MatrixType.COO), repeat)
         y = np.zeros_like(rb)
         t_chs, _ = _cpu_best(lambda: ch.solve(rb, y), repeat)
     y = _embedded_back(y, A.shape[0], np.iscomplexobj(A))
-    return (*out, t_ch, t_chs, float(np.abs(x - y).max() / np.abs(x).max()))
+    return (*out, t_ch, t_chs, _difference(x, y))
 
 
 def _run(size: int, repeat: int) -> list:

@@ -156,18 +156,17 @@ def factor_spd(S):
     0.8 ms per solve against 1.3 (``benchmarks/solvers.py``). Raises ``RuntimeError`` on an exactly singular system
     that stays singular when damped."""
     S = S.tocsc()
-    if qdldl is not None and S.shape[0]:
-        try:
-            return _LDL(S)
-        except RuntimeError:  # a zero pivot: exactly singular, damp
-            d = S.diagonal()
-            return _LDL(S + sp.identity(S.shape[0], format="csc") * (1e-9 * max(float(np.abs(d).max()), 1e-300)))
+    factor = _LDL if qdldl is not None and S.shape[0] else _superlu
     try:
-        return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
-    except RuntimeError:  # exactly singular: damp
+        return factor(S)
+    except RuntimeError:  # a zero pivot: exactly singular, damp
         d = S.diagonal()
-        S = S + sp.identity(S.shape[0], format="csc") * (1e-9 * max(float(np.abs(d).max()), 1e-300))
-        return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+        return factor(S + sp.identity(S.shape[0], format="csc") * (1e-9 * max(float(np.abs(d).max()), 1e-300)))
+
+
+def _superlu(S):
+    """SuperLU of the SPD system ``S`` (CSC) without pivoting, on the symmetric minimum-degree ordering."""
+    return spla.splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 
 def damping(r: np.ndarray) -> float:
