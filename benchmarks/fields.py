@@ -219,6 +219,37 @@ extract 6.7-7.1, planarize 15.6 → 11.6; the planarization alone 10.6-12.8 → 
 12452 faces, 9.16e-5 and 9.27e-5, healthy, coverage 1.000), peak 1.0 GB. On this machine the field, the
 parametrization and the extraction of the 200k row alone take 24-25 s: the 15 s needs them cheaper too.
 
+Session 25 (session 24's machine, quieter: the 200k row 29.7-34.5 s with today's code, field 11.6-13.7, param 3.2-3.8,
+extract 5.0-6.4, planarize 9.4-10.6; seeds 1-3 31.2-32.5 s). Four ways to a shorter row, measured and not adopted:
+- The conjugate field's local-global iterations. 20 instead of 40: ``benchmarks/convergence.py --field-iterations
+  20`` converges 24 of 24 as 40 does but is slower (8k 1.6-2.6 s against 1.5-2.1, 20k 3.0-4.7 against 2.7-4.2): the
+  less conjugate candidates take longer to planarize. 80 at 200k: the candidate's mean planarity 1.32e-3 → 0.83e-3,
+  but the field +5-6 s against planarizations 9.1 → 7.2 s (seed 0) and 11.8 → 11.6 s (seed 1): 29.7 → 31.1 and
+  31.5 → 36.9 s. The iterations do not converge (the pairs still turn by the same amount at the 40th) and pay for
+  themselves at about 40.
+- A field from a coarse copy finished on the mesh: decimate to about 50k triangles, that copy's field, carried over
+  (``transferred_field``), then 10 local-global iterations on the mesh itself (where session 17 only took the
+  closest conjugate pairs). Seeds 0-3: field 10.2-12.8 s (decimate 2.7-3.2, coarse field 2.6-3.1, the 10 fine
+  iterations 4.2-5.9: their two factorizations) against 11.7-12.4 s; end to end 29.8-36.0 s against 29.7-32.5 s
+  (seed 2 got a 13,917-panel candidate: extraction 11.7 s). No gain.
+- Longer restore steps: after a halving, two bisections between the accepted fraction β and the rejected 2β (a
+  health evaluation each, no solve), since on the 200k candidate the trials at β 0.5 failed by one or two degrees of a
+  corner. The 200k candidates of seeds 0-3 took 25 / 39 / 27 / 29 iterations instead of 32 / 38 / 34 / 36 (43.5
+  against 48.1 s of planarization in all), and the 20k candidate now ran its optimize phase (mean closeness 0.0106 →
+  0.0059 of an edge, in 22 iterations instead of 12). But on 171 saved candidates (``convergence.py --saved``: the
+  patches' seeds 0-15 at 8k and 20k, the 20k seeds 0-3 and 8k seeds 4-7 at ×1000 and +5e6, the shared meshes at 60,
+  300 and 1000 panels) 152 converged instead of 155, none gained: a step that ends right at the guard's bound leaves
+  the next ones less room. With one bisection: 62 of 65 instead of 63 on the first 65.
+- The reduced systems' many right-hand sides (``_Reduced``: 2,097 back-substitutions, 1.6 s of the 200k
+  planarization) solved in one pass on qdldl's factors (a compiled triangular solve): 2x on 60 columns, so 0.8 s,
+  and not bit-identical with the column loop.
+What the 200k row is made of: the planarization of its 12.5k panels alone takes 9-12 s here (32-38 iterations, 99
+factorizations at 26 ms and 2,100 back-substitutions: 4.2 of 10 s; the rest is spread over the guard's checks), and
+the field, the parametrization and the extraction of the 200k-triangle input 20-25 s. Each measured variant of each
+step saves 10-20 % of its step at most; together they do not approach 15 s on this machine. The row needs another
+planarization (a handful of steps for thousands of panels under the panel-health guard) and a candidate built at the
+panels' scale, not the input's; neither exists here yet.
+
 Inputs: an open, disk-like free-form patch (a jittered triangulated grid on z = 0.3 sin(2x) cos(3y) + 0.2 x y over
 [-1.5, 1.5]²) with a hole punched in it, so boundaries are exercised; sizes are the triangle counts.
 """
