@@ -229,6 +229,39 @@ def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshErro
     return MeshError(name, f"the mesh has {pieces} connected pieces; {advice}")
 
 
+def zero_edge_error(X, F, sizes, rep, tol: float, name: str = "mesh") -> MeshError | None:
+    """The error for faces two of whose corners weld into one (an edge within ``tol``; ``rep`` from
+    :func:`~components.core.mesh.weld_map`), naming the first face and the shortest of its edges, or None.
+
+    >>> from components.core.mesh import weld_map
+    >>> X = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [1, 0, 1e-12]])
+    >>> F = np.array([[0, 4, 1, 2, 3]])
+    >>> print(zero_edge_error(X, F, np.array([5]), weld_map(X, np.ones(5, bool), 1e-9), 1e-9))
+    mesh: face 0 [0, 4, 1, 2, 3] has a zero-length edge: vertices 4 and 1 are 1e-12 apart (within the weld tolerance 1e-09); a quad with a collapsed edge is not a panel: weld the two corners and write the face as a triangle (a, b, c, c), or move them apart
+    """
+    k = F.shape[1]
+    valid = np.arange(k)[None, :] < sizes[:, None]
+    pad = -1 - np.arange(k)[None, :]
+
+    def repeats(G):
+        Gs = np.sort(np.where(valid, G, pad), axis=1)
+        return (Gs[:, 1:] == Gs[:, :-1]).any(axis=1)
+
+    bad = repeats(rep[F]) & ~repeats(F)  # a vertex repeated in the input itself is validate_mesh's to word
+    if not bad.any():
+        return None
+    i = int(np.argmax(bad))
+    corners = F[i, : sizes[i]].tolist()
+    s = len(corners)
+    lengths = [(float(np.linalg.norm(X[corners[(j + 1) % s]] - X[corners[j]])), corners[j], corners[(j + 1) % s])
+               for j in range(s)]
+    d, a, b = min(lengths)
+    more = f" ({int(bad.sum())} faces in all)" if bad.sum() > 1 else ""
+    return MeshError(name, f"face {i} {corners} has a zero-length edge: vertices {a} and {b} are {d:.3g} apart (within "
+                           f"the weld tolerance {tol:.3g}){more}; a quad with a collapsed edge is not a panel: weld the "
+                           f"two corners and write the face as a triangle (a, b, c, c), or move them apart")
+
+
 #: boundary_gap_warning: boundary points closer than this × the panel size in space ...
 GAP_SHARE = 0.25
 #: ... and this many times farther apart along the boundary (a notch sharper than about 11° counts as a gap)

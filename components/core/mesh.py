@@ -454,6 +454,9 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
 #: STL corners closer than this fraction of the bounding-box diagonal are welded into one vertex (an ASCII STL's
 #: six significant digits and a binary STL's float32 both round far below it)
 STL_WELD = 1e-6
+#: vertices closer than this fraction of the bounding-box diagonal are one point (the planarizer welds them, the
+#: fabrication stage refuses a face two of whose corners are one point)
+WELD_FRACTION = 1e-9
 
 
 def weld_labels(P: np.ndarray, tol: float) -> np.ndarray:
@@ -479,6 +482,25 @@ def weld_labels(P: np.ndarray, tol: float) -> np.ndarray:
         return np.arange(k)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(k, k))
     return connected_components(graph, directed=False)[1]
+
+
+def weld_map(X: np.ndarray, used: np.ndarray, tol: float) -> np.ndarray | None:
+    """``(n,)`` representative (smallest index) of every vertex of ``X (n, 3)`` after welding the ``used`` ones within
+    ``tol`` (:func:`weld_labels`; pass centred coordinates); ``None`` when no two used vertices are that close.
+
+    >>> weld_map(np.array([[0.0, 0, 0], [1, 0, 0], [1, 0, 1e-12]]), np.ones(3, bool), 1e-9).tolist()
+    [0, 1, 1]
+    """
+    idx = np.nonzero(used)[0]
+    k = len(idx)
+    label = weld_labels(X[idx], tol)
+    if not k or label.max() + 1 == k:  # no two that close
+        return None
+    first = np.full(label.max() + 1, k, dtype=np.int64)
+    np.minimum.at(first, label, np.arange(k))
+    rep = np.arange(len(X))
+    rep[idx] = idx[first[label]]
+    return rep
 
 
 class StlMesh(NamedTuple):

@@ -18,9 +18,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from components.core.checks import check_choice, check_mesh, check_number
+from components.core.checks import check_choice, check_number
 from components.core.types import Booleans, Curves, Integers, Mesh, Numbers
-from components.fabrication.panels import METHODS, FlatPanels, closed_polylines, diagonal_pairs, flat_panels
+from components.fabrication.panels import (METHODS, FlatPanels, checked_panelling, closed_polylines, diagonal_pairs,
+                                          flat_panels)
 
 __all__ = [
     "DEDUPE",
@@ -488,7 +489,7 @@ def panel_types(mesh: Mesh, tolerance: float = 0.0, tolerances: Numbers | None =
     >>> res.type_count, res.counts.tolist()
     (1, [6])
     """
-    V, F = check_mesh(mesh, "mesh")
+    V, F, _ = checked_panelling(mesh)
     tolerance = check_number(tolerance, "tolerance", 0)
     check_choice(method, "method", METHODS)
     extra = [] if tolerances is None else [check_number(t, "tolerances", 0) for t in np.ravel(tolerances)]

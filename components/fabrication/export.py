@@ -14,13 +14,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_choice, check_number, validate_mesh
+from components.core.checks import check_choice, check_number
 from components.core.measures import norm
 from components.fabrication.congruence import PanelTypes, congruence_types, default_tolerance
 from components.fabrication.kinks import Dihedrals, dihedral_angles, panel_kinks
 from components.fabrication.nodes import AXES, BeamFrames, SupportAxes, beam_frames, support_axes
-from components.fabrication.panels import (METHODS, FlatPanels, SheetLayout, diagonal_pairs, flat_panels,
-                                           placed_outlines, sheet_layout)
+from components.fabrication.panels import (METHODS, FlatPanels, SheetLayout, checked_panelling, diagonal_pairs,
+                                           flat_panels, placed_outlines, sheet_layout, unwelded_warning)
 
 __all__ = ["Fabrication", "fabrication", "cutting_list", "write_csv", "write_dxf", "type_layer"]
 
@@ -92,7 +92,7 @@ def fabrication(V, F, tolerance: float = 0.0, tolerances=(), mirror: bool = True
     >>> fab.flat.labels[:2], fab.types.type_counts.tolist(), fab.layout.sheet_count
     (['A01', 'A02'], [1, 1, 1, 1], 1)
     """
-    V, F = validate_mesh(V, F, name=name)
+    V, F, unwelded = checked_panelling((V, F), name)
     check_choice(method, "method", METHODS)
     check_choice(axes, "axes", AXES)
     tolerance = check_number(tolerance, "tolerance", 0)
@@ -109,7 +109,7 @@ def fabrication(V, F, tolerance: float = 0.0, tolerances=(), mirror: bool = True
     fr = beam_frames(V, F, sa.axes)
     L = norm(V[fr.E[:, 1]] - V[fr.E[:, 0]])
     mean_edge = float(L.mean()) if len(L) else 1.0
-    warnings = []
+    warnings = unwelded_warning(unwelded)
     res = float(np.abs(flat.residual).max(initial=0.0))
     if res > 1e-6 * mean_edge:
         warnings.append(f"panels are not planar: corners up to {res:.3g} off their panel's plane")

@@ -8,11 +8,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_mesh, check_number
+from components.core.checks import check_number
 from components.core.measures import cross, dot, face_data, least_squares_planes, norm
 from components.core.mesh import edge_topology, halfedges
 from components.core.types import Integers, Lines, Mesh, Numbers
-from components.fabrication.panels import outward_sign
+from components.fabrication.panels import checked_panelling, outward_sign, unwelded_warning
 
 __all__ = ["Dihedrals", "KinksResult", "dihedral_angles", "panel_kinks", "kinks"]
 
@@ -169,13 +169,13 @@ def kinks(mesh: Mesh, limit: float = 10.0) -> KinksResult:
     >>> res.max_kink, len(res.kinks), res.over_count
     (0.0, 12, 0)
     """
-    V, F = check_mesh(mesh, "mesh")
+    V, F, unwelded = checked_panelling(mesh)
     limit = check_number(limit, "limit", 0, 180)
     dh = dihedral_angles(V, F)
     e = np.nonzero(dh.interior)[0]
     ang = dh.angle[e]
     over = np.nonzero(ang > limit)[0]
-    warnings: list[str] = []
+    warnings = unwelded_warning(unwelded)
     if len(e) == 0:
         warnings.append("the mesh has no interior edge: no joint to measure")
     if len(over):

@@ -16,11 +16,11 @@ from typing import NamedTuple
 import numpy as np
 
 from components.conical.cones import conical_check, face_offset
-from components.core.checks import check_choice, check_mesh, check_number
+from components.core.checks import check_choice, check_number
 from components.core.measures import cross, dot, face_data, least_squares_planes, norm, quad_planarity, unit
 from components.core.mesh import edge_topology, face_corners
 from components.core.types import Lines, Mesh, Meshes, Numbers, Plane, Vectors
-from components.fabrication.panels import Planes, outward_sign
+from components.fabrication.panels import Planes, checked_panelling, outward_sign, unwelded_warning
 
 __all__ = ["AXES", "SupportAxes", "BeamFrames", "NodesResult", "support_axes", "beam_frames", "beam_meshes",
            "nodes"]
@@ -249,7 +249,7 @@ def nodes(mesh: Mesh, beam_height: float = 0.0, beam_width: float = 0.0, axes: s
     >>> res.axis_method, res.max_torsion, len(res.beams)
     ('offset', 0.0, 12)
     """
-    V, F = check_mesh(mesh, "mesh")
+    V, F, unwelded = checked_panelling(mesh)
     h = check_number(beam_height, "beam_height", 0)
     w = check_number(beam_width, "beam_width", 0)
     check_choice(axes, "axes", AXES)
@@ -260,7 +260,7 @@ def nodes(mesh: Mesh, beam_height: float = 0.0, beam_width: float = 0.0, axes: s
     h = h if h > 0 else 0.2 * mean_edge
     w = w if w > 0 else 0.05 * mean_edge
     tors = np.abs(fr.torsion)
-    warnings: list[str] = []
+    warnings = unwelded_warning(unwelded)
     if axes == "offset" and not sa.conical:
         warnings.append("the mesh is not conical: its offset node axes are not coplanar along every edge")
     mid = 0.5 * (V[fr.E[:, 0]] + V[fr.E[:, 1]])

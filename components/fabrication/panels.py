@@ -18,11 +18,11 @@ from typing import Annotated, NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_choice, check_mesh, check_number
+from components.core.checks import check_choice, check_mesh, check_number, zero_edge_error
 from components.core.errors import InputError, MeshError
 from components.core.measures import cross, dot, face_data, least_squares_planes, norm, unit
-from components.core.mesh import (bounding_box_diagonal, boundary_loops, boundary_vertex_mask, edge_topology,
-                                  face_sizes, halfedges)
+from components.core.mesh import (WELD_FRACTION, bounding_box_diagonal, boundary_loops, boundary_vertex_mask,
+                                  edge_topology, face_sizes, halfedges, weld_map)
 from components.core.types import Curves, Integers, Mesh, Numbers, Plane, Points, Texts
 
 __all__ = [
@@ -32,6 +32,8 @@ __all__ = [
     "PanelsResult",
     "METHODS",
     "ORIENTATIONS",
+    "checked_panelling",
+    "unwelded_warning",
     "outward_sign",
     "grid_positions",
     "panel_labels",
@@ -53,6 +55,49 @@ METHODS = ("project", "unfold")
 ORIENTATIONS = ("outside", "mesh")
 
 _STEP = ((-1, 0), (0, 1), (1, 0), (0, -1))  # grid direction → (row, column) step
+
+
+# ----------------------------------------------------------------------------------------------
+# the input
+
+
+def checked_panelling(mesh: Mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray, int]:
+    """A panelling checked for fabrication: :func:`~components.core.checks.check_mesh`, and no face with two corners
+    at one point (within :data:`~components.core.mesh.WELD_FRACTION` of the bounding-box diagonal, as the planarizer
+    welds): such a face's flat outline, edges and angles would describe a polygon that is not the panel, so it is
+    refused, naming the face. Returns ``V, F`` and the number of vertices that lie on another vertex of other faces
+    (an unwelded mesh: the panels are fine, the joints there are not seen; :func:`unwelded_warning`).
+
+    Example
+    -------
+    >>> from components.core.mesh import quad_grid
+    >>> V, F = quad_grid(2, 1)
+    >>> F[1, 0] = len(V)  # the second panel's first corner: a copy of the vertex it shares with the first
+    >>> checked_panelling((np.vstack([V, V[F[0, 1]]]), F))[2]
+    1
+    """
+    V, F = check_mesh(mesh, name)
+    used = np.zeros(len(V), dtype=bool)
+    used[F.ravel()] = True
+    lo, hi = V[used].min(axis=0), V[used].max(axis=0)
+    X = V - 0.5 * (lo + hi)  # no digit lost at site coordinates
+    tol = WELD_FRACTION * float(np.linalg.norm(hi - lo))
+    rep = weld_map(X, used, tol)
+    if rep is None:
+        return V, F, 0
+    err = zero_edge_error(X, F, face_sizes(F), rep, tol, name)
+    if err is not None:
+        raise err
+    return V, F, int(np.count_nonzero(rep[used] != np.nonzero(used)[0]))
+
+
+def unwelded_warning(count: int) -> list[str]:
+    """The warning for ``count`` vertices lying on others (:func:`checked_panelling`): none when 0."""
+    if not count:
+        return []
+    what = "1 vertex lies on another vertex" if count == 1 else f"{count} vertices lie on other vertices"
+    return [f"{what} (the mesh is not welded there): the joints between the panels that meet there are not "
+            "measured; weld it (Rhino: _Weld) and send it again"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -761,7 +806,7 @@ def panels(mesh: Mesh, sheet_width: float = 0.0, sheet_height: float = 0.0, gap:
     >>> res.labels, res.sheet_count, res.areas.tolist()
     (['A01', 'A02'], 1, [1.0, 1.0])
     """
-    V, F = check_mesh(mesh, "mesh")
+    V, F, _ = checked_panelling(mesh)
     gap = check_number(gap, "gap", 0)
     sheet_width = check_number(sheet_width, "sheet_width")
     sheet_height = check_number(sheet_height, "sheet_height")

@@ -34,14 +34,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_mesh, validate_mesh
+from components.core.checks import check_mesh, validate_mesh, zero_edge_error
 from components.core.errors import MeshError
-from components.core.mesh import edge_topology, face_sizes, weld_labels
+from components.core.mesh import WELD_FRACTION, edge_topology, face_sizes, weld_map
 from components.metrics.health import TOUCH, touching_pairs
 
 __all__ = ["WELD_FRACTION", "TOUCH_FRACTION", "Prepared", "Reference", "prepared_mesh", "centred_reference"]
 
-WELD_FRACTION = 1e-9  # default weld tolerance, × the bounding-box diagonal
 _WELD_CAP = 0.01  # the request's absolute tolerance is used up to this × the median edge
 TOUCH_FRACTION = TOUCH  # unwelded boundary vertices closer than this × the median edge touch
 
@@ -104,10 +103,12 @@ def prepared_mesh(V, F, name: str = "mesh", absolute_tolerance: float = 0.0) -> 
             warnings.append(f"{name}: the absolute tolerance {tol:.3g} is more than {_WELD_CAP:.0%} of the median edge "
                             f"{median_edge:.3g}; duplicate vertices were welded within {_WELD_CAP * median_edge:.3g}")
             tol, how = _WELD_CAP * median_edge, f"{_WELD_CAP:.0%} of the median edge"
-    rep = _weld_map(X, used, tol)
+    rep = weld_map(X, used, tol)
     Fw = F
     if rep is not None:
-        _refuse_zero_edges(X, F, sizes, rep, tol, name)
+        err = zero_edge_error(X, F, sizes, rep, tol, name)
+        if err is not None:
+            raise err
         Fw = rep[F]
         n_welded = int(np.count_nonzero(rep[used] != np.nonzero(used)[0]))
         warnings.append(f"{name}: {n_welded} duplicate vertice{'s were' if n_welded != 1 else ' was'} welded (within "
@@ -150,46 +151,6 @@ def _median_edge(X, F) -> float:
     L = np.linalg.norm(X[E[:, 1]] - X[E[:, 0]], axis=1)
     med = float(np.median(L)) if len(L) else 0.0
     return med if med > 0 else float(L.max()) if len(L) else 0.0
-
-
-def _weld_map(X, used, tol) -> np.ndarray | None:
-    """``(n,)`` representative (smallest index) of every vertex after welding the used vertices within ``tol``;
-    ``None`` when no two used vertices are that close."""
-    idx = np.nonzero(used)[0]
-    k = len(idx)
-    label = weld_labels(X[idx], tol)
-    if not k or label.max() + 1 == k:  # no two that close
-        return None
-    first = np.full(label.max() + 1, k, dtype=np.int64)
-    np.minimum.at(first, label, np.arange(k))
-    rep = np.arange(len(X))
-    rep[idx] = idx[first[label]]
-    return rep
-
-
-def _refuse_zero_edges(X, F, sizes, rep, tol, name):
-    """A face two of whose corners weld into one (an edge within ``tol``) is refused, naming the face."""
-    k = F.shape[1]
-    valid = np.arange(k)[None, :] < sizes[:, None]
-    pad = -1 - np.arange(k)[None, :]
-
-    def repeats(G):
-        Gs = np.sort(np.where(valid, G, pad), axis=1)
-        return (Gs[:, 1:] == Gs[:, :-1]).any(axis=1)
-
-    bad = repeats(rep[F]) & ~repeats(F)  # a vertex repeated in the input itself is validate_mesh's to word
-    if not bad.any():
-        return
-    i = int(np.argmax(bad))
-    corners = F[i, : sizes[i]].tolist()
-    s = len(corners)
-    lengths = [(float(np.linalg.norm(X[corners[(j + 1) % s]] - X[corners[j]])), corners[j], corners[(j + 1) % s])
-               for j in range(s)]
-    d, a, b = min(lengths)
-    more = f" ({int(bad.sum())} faces in all)" if bad.sum() > 1 else ""
-    raise MeshError(name, f"face {i} {corners} has a zero-length edge: vertices {a} and {b} are {d:.3g} apart (within "
-                          f"the weld tolerance {tol:.3g}){more}; a quad with a collapsed edge is not a panel: weld the "
-                          f"two corners and write the face as a triangle (a, b, c, c), or move them apart")
 
 
 def _refuse_touching_pieces(X, F, median_edge, tol, name):

@@ -467,6 +467,31 @@ def test_typed_errors_name_the_input():
         fabrication(V, Q[:, [0, 1, 1, 2]], name="roof.obj")
 
 
+@pytest.mark.parametrize("scale, shift", [(1.0, 0.0), (1000.0, 0.0), (1.0, 5e6)])
+def test_a_face_with_two_corners_at_one_point_is_refused_and_an_unwelded_joint_is_said(scale, shift):
+    V, Q = translation_net(4)
+    V = V * scale + shift
+    # face 0 with a copy of its second corner inserted after it: a zero-length edge (the outline, the cutting list's
+    # edges and angles would describe a pentagon that is not the panel; with the copy first, a panel of area 0)
+    for pos in (0, 1):
+        F = np.concatenate([Q, Q[:, -1:]], axis=1)
+        F[0] = np.insert(Q[0], pos + 1, len(V))
+        for call in (lambda m: panels(m), lambda m: panel_types(m), lambda m: kinks(m), lambda m: nodes(m),
+                     lambda m: fabrication(*m)):
+            with pytest.raises(MeshError, match=r"^mesh: face 0 .* zero-length edge: .*weld the two corners"):
+                call((np.vstack([V, V[Q[0, pos]]]), F))
+    # a panel with its own copy of a shared corner: the panels are exact, the joints there are missing and said
+    F = Q.copy()
+    F[1, 0] = len(V)
+    Vu = np.vstack([V, V[Q[1, 0]]])
+    assert np.allclose(panels((Vu, F)).areas, panels((V, Q)).areas, rtol=1e-12)
+    for res in (kinks((Vu, F)), nodes((Vu, F)), fabrication(Vu, F)):
+        assert any(w.startswith("1 vertex lies on another vertex (the mesh is not welded there)") and "weld" in w
+                   for w in res.warnings)
+    assert len(kinks((Vu, F)).kinks) < len(kinks((V, Q)).kinks)
+    assert not any("welded" in w for w in kinks((V, Q)).warnings)
+
+
 def test_network_strategy_result_has_torsion_free_interior_beams():
     V, T, _ = sample_mesh("dome", 20)
     res = curvature_pipeline((V, T), default_panel_size(V, 8))
