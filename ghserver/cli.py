@@ -18,6 +18,9 @@ log = logging.getLogger("ghserver")
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 5000
+#: ``ghserver fabricate --units``: the short names → Rhino's unit system names (the .3dm's and the DXF's units)
+UNIT_NAMES = {"mm": "Millimeters", "cm": "Centimeters", "dm": "Decimeters", "m": "Meters", "km": "Kilometers",
+              "in": "Inches", "ft": "Feet", "yd": "Yards"}
 
 
 def _ipv6_loopback_available() -> bool:
@@ -234,7 +237,15 @@ def _fabricate(args) -> int:
     tol = list(args.tolerance or [])
     sheet = args.sheet or (0.0, 0.0)
     try:
-        V, F, notes = read_model(path, layer=args.layer, name=args.object)
+        V, F, notes, units = read_model(path, layer=args.layer, name=args.object)
+        if args.units is not None:
+            if units is not None and units != UNIT_NAMES[args.units]:
+                notes += (f"{path.name} is in {units.lower()}: --units {args.units} writes the files in "
+                          f"{UNIT_NAMES[args.units].lower()} (the coordinates are not converted)",)
+            units = UNIT_NAMES[args.units]
+        elif units is None:
+            notes += (f"{path.name} does not say its units: the DXF and the .3dm are written unitless (give --units, "
+                      "e.g. --units mm, to write them in)",)
         for note in notes:
             print(f"note: {note}")
         fab = fabrication(V, F, tolerance=tol[0] if tol else 0.0, tolerances=tol, mirror=not args.no_mirror,
@@ -243,8 +254,9 @@ def _fabricate(args) -> int:
                           kink_limit=args.kink_limit, name=path.name)
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        written = [write_dxf(out / f"{path.stem}_panels.dxf", fab),
-                   write_csv(out / f"{path.stem}_cutting_list.csv", fab), write_3dm(out / f"{path.stem}.3dm", fab)]
+        written = [write_dxf(out / f"{path.stem}_panels.dxf", fab, units),
+                   write_csv(out / f"{path.stem}_cutting_list.csv", fab),
+                   write_3dm(out / f"{path.stem}.3dm", fab, units)]
     except (ValueError, OSError) as exc:  # InputError / MeshError are ValueErrors: a bad file or option
         print(f"ghserver fabricate: {exc}", file=sys.stderr)
         return 2
@@ -342,6 +354,9 @@ def build_parser() -> argparse.ArgumentParser:
     fb.add_argument("--layer", default=None, help="in a .3dm holding several meshes: the layer to use")
     fb.add_argument("--object", default=None, help="in a .3dm holding several meshes: the object name")
     fb.add_argument("--out", default="fabrication", help="output folder (default ./fabrication)")
+    fb.add_argument("--units", choices=sorted(UNIT_NAMES), default=None,
+                    help="the model's units, written into the DXF and the .3dm (default: the .3dm's own; an .obj, "
+                         ".off, .ply or .stl has none: the files are then written unitless)")
     fb.add_argument("--tolerance", type=float, nargs="+", default=None, metavar="T",
                     help="panel-type tolerance(s) in model units: types at the first, counts at all (default "
                          "1e-3 × the median edge, counts at 1, 2, 5, 10 × it)")

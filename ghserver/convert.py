@@ -467,7 +467,7 @@ LAYERS_3DM = {
 }
 
 
-def write_3dm(path, fab):
+def write_3dm(path, fab, units: str | None = None):
     """The fabrication model as a Rhino file: every panel, its label, the node axes, the beams and the flat layout.
 
     Layers (:data:`LAYERS_3DM`): ``panels`` (one mesh per panel, named by its label), ``labels`` (a TextDot with
@@ -481,8 +481,12 @@ def write_3dm(path, fab):
         The ``.3dm`` file to write.
     fab : components.fabrication.export.Fabrication
         From :func:`components.fabrication.export.fabrication`.
+    units : str, optional
+        The model's unit system by Rhino's name (``"Meters"``, ``"Millimeters"``, ...; :func:`file_units`); None:
+        the file says it has none.
     """
     model = rhino3dm.File3dm()
+    _set_units(model, units)
     index = {}
     for name, colour in LAYERS_3DM.items():
         layer = rhino3dm.Layer()
@@ -530,11 +534,26 @@ def write_3dm(path, fab):
 
 
 class ModelMesh(NamedTuple):
-    """A mesh read from a model file, with what the reader did to it."""
+    """A mesh read from a model file, with what the reader did to it and the model's units."""
 
     V: np.ndarray
     F: np.ndarray
     notes: tuple
+    units: str | None = None  # Rhino's name of the .3dm's unit system ("Millimeters", ...); None: not given
+
+
+def file_units(model) -> str | None:
+    """The unit system of a read ``File3dm`` by Rhino's name (``"Meters"``, ``"Millimeters"``, ...), or None when the
+    file has none (``None``, ``Unset``) or custom units."""
+    name = model.Settings.ModelUnitSystem.name
+    return None if name in ("None", "Unset", "CustomUnits") else name
+
+
+def _set_units(model, units: str | None):
+    """Give a ``File3dm`` being written the unit system named ``units`` (Rhino's name), or none when None: rhino3dm
+    writes millimetres by default, which would scale a metre model by 1000 when Rhino opens it."""
+    unitless = getattr(rhino3dm.UnitSystem, "None")  # (a keyword: not an attribute name in Python's syntax)
+    model.Settings.ModelUnitSystem = getattr(rhino3dm.UnitSystem, units, unitless) if units else unitless
 
 
 #: grid segments per direction when a .3dm surface is meshed (:func:`read_3dm`)
@@ -592,9 +611,15 @@ def read_3dm(path, layer: str | None = None, name: str | None = None,
     obj = found[0]
     geo = obj.Geometry
     label = _object_label(model, obj)
+    units = file_units(model)
     if isinstance(geo, rhino3dm.Mesh):
         V, F = rhino_mesh_arrays(geo)
-        return ModelMesh(V, F, (f"{path.name}: {label}, {len(V):,} vertices, {len(F):,} faces",))
+        notes = (f"{path.name}: {label}, {len(V):,} vertices, {len(F):,} faces",)
+        if np.array_equal(V, V.astype(np.float32)):  # (rhino3dm reports double-precision vertices either way)
+            notes += _single_precision_note(path.name, "the mesh's coordinates are all single-precision numbers (a "
+                                            "mesh written without double-precision vertices)", V,
+                                            "export it near the origin (or with double-precision vertices)")
+        return ModelMesh(V, F, notes, units)
     surface = decode_surface(geo.Encode())
     res = surface_mesh(surface, segments, segments)
     V, T = res.mesh
@@ -602,7 +627,7 @@ def read_3dm(path, layer: str | None = None, name: str | None = None,
             f"({len(V):,} vertices, {len(T):,} triangles)")
     if isinstance(geo, rhino3dm.Brep):
         note += "; the Brep face's trims are ignored (its whole underlying surface is meshed)"
-    return ModelMesh(V, T, (note,))
+    return ModelMesh(V, T, (note,), units)
 
 
 def read_model(path, layer: str | None = None, name: str | None = None,
@@ -624,30 +649,37 @@ def read_model(path, layer: str | None = None, name: str | None = None,
                 f"(1e-6 × the bounding-box diagonal)")
         if s.dropped:
             note += f"; {s.dropped} triangle(s) collapsed by the weld were dropped"
-        notes = (note,) + _stl_precision_note(path, s)
+        binary = _binary_stl(path)
+        notes = (note,) + (_single_precision_note(path.name, "binary STL stores single-precision coordinates", s.V,
+                                                  "export the model near the origin (or as .3dm / .obj)")
+                           if binary else ())
         return ModelMesh(s.V, s.F, notes)
     V, F = read_mesh(path)
     return ModelMesh(V, F, ())
 
 
-def _stl_precision_note(path, s) -> tuple:
-    """A note when a binary STL's single-precision coordinates round the model by more than 1e-7 of its size (site
-    coordinates: at 5e6 a float32 is rounded to 0.5 units), else nothing."""
+def _binary_stl(path) -> bool:
+    """Whether the STL file at ``path`` is binary (its size is the 84-byte header plus 50 bytes a triangle)."""
     data = Path(path).read_bytes()
-    binary = len(data) >= 84 and len(data) == 84 + 50 * int.from_bytes(data[80:84], "little")
-    size = s.tolerance / 1e-6  # the weld tolerance is 1e-6 × the bounding-box diagonal
-    if not binary or not len(s.V) or size <= 0:
+    return len(data) >= 84 and len(data) == 84 + 50 * int.from_bytes(data[80:84], "little")
+
+
+def _single_precision_note(file: str, stored: str, V: np.ndarray, advice: str) -> tuple:
+    """A note when single-precision coordinates round the model ``V`` by more than 1e-7 of its size (site
+    coordinates: at 5e6 a float32 is rounded to 0.5 units), else nothing: the model was rounded where it was
+    written, and exactly planar panels can come back as not planar."""
+    if not len(V):
         return ()
-    far = float(np.abs(s.V).max())
+    size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    far = float(np.abs(V).max())
     step = float(np.spacing(np.float32(far)))
-    if step <= 1e-7 * size:
+    if size <= 0 or step <= 1e-7 * size:
         return ()
-    return (f"{Path(path).name}: binary STL stores single-precision coordinates: at up to {far:.4g} they are rounded "
-            f"by up to {step / 2:.3g} ({step / 2 / size:.2g} × the model's size); export the model near the origin "
-            f"(or as .3dm / .obj) to keep its precision",)
+    return (f"{file}: {stored}: at up to {far:.4g} they are rounded by up to {step / 2:.3g} ({step / 2 / size:.2g} "
+            f"× the model's size); {advice} to keep its precision",)
 
 
-def write_meshes_3dm(path, meshes, colours: dict | None = None) -> Path:
+def write_meshes_3dm(path, meshes, colours: dict | None = None, units: str | None = None) -> Path:
     """Write meshes to a Rhino ``.3dm`` file, one layer per group.
 
     Parameters
@@ -659,8 +691,11 @@ def write_meshes_3dm(path, meshes, colours: dict | None = None) -> Path:
         written as triangle fans).
     colours : dict, optional
         Layer name → RGBA colour.
+    units : str, optional
+        The meshes' unit system by Rhino's name (:func:`file_units`); None: the file says it has none.
     """
     model = rhino3dm.File3dm()
+    _set_units(model, units)
     index = {}
     for layer, name, V, F in meshes:
         if layer not in index:

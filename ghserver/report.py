@@ -162,6 +162,7 @@ class Surface(NamedTuple):
     description: str
     panel_size: float
     camera: tuple
+    units: str | None = None  # a .3dm's unit system by Rhino's name; None: not given (the built-in surfaces)
 
 
 def _builtin_surfaces(names, settings: Settings) -> list[Surface]:
@@ -185,7 +186,7 @@ def _file_surface(path, settings: Settings, taken: set, layer: str | None = None
     from ghserver.convert import read_model
 
     path = Path(path)
-    V, F, notes = read_model(path, layer=layer, name=object_name)
+    V, F, notes, units = read_model(path, layer=layer, name=object_name)
     for note in notes:
         log.info("%s", note)
     V, F = validate_mesh(V, F, name=path.name)
@@ -197,7 +198,7 @@ def _file_surface(path, settings: Settings, taken: set, layer: str | None = None
         name = f"{path.stem}-{k}"
         k += 1
     desc = f"mesh file {path.name}: {len(V):,} vertices, {len(F):,} faces" + "".join(f"; {n}" for n in notes)
-    return Surface(name, V, T, desc, default_panel_size(V, settings.divisions), DEFAULT_CAMERA)
+    return Surface(name, V, T, desc, default_panel_size(V, settings.divisions), DEFAULT_CAMERA, units)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -1338,7 +1339,8 @@ def run_report(out_dir=DEFAULT_OUT, surfaces=None, mesh_files=(), progress: bool
         if model_meshes:
             from ghserver.convert import write_meshes_3dm
 
-            write_meshes_3dm(out / "results.3dm", model_meshes)
+            units = {s.units for s in surfs}  # one file: in the meshes' units when they all have the same ones
+            write_meshes_3dm(out / "results.3dm", model_meshes, units=units.pop() if len(units) == 1 else None)
         elapsed = time.perf_counter() - t0
         report = {
             "generated": _dt.datetime.now().isoformat(timespec="seconds"),

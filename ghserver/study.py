@@ -371,7 +371,7 @@ def design_surfaces(study: Study, store: "_Cache | None" = None) -> list[DesignS
         from ghserver.convert import read_model  # deferred import: rhino3dm, only for mesh files
 
         try:
-            V, F, notes = read_model(m.path, layer=m.layer, name=m.object)
+            V, F, notes, _ = read_model(m.path, layer=m.layer, name=m.object)
             V, T = design_surface(V, F)
         except (InputError, MeshError) as exc:
             raise InputError("meshes", f"{m.path.name}: {exc}") from None

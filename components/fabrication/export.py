@@ -22,7 +22,15 @@ from components.fabrication.nodes import AXES, BeamFrames, SupportAxes, beam_fra
 from components.fabrication.panels import (METHODS, FlatPanels, SheetLayout, checked_panelling, diagonal_pairs,
                                            flat_panels, placed_outlines, sheet_layout, unwelded_warning)
 
-__all__ = ["Fabrication", "fabrication", "cutting_list", "write_csv", "write_dxf", "type_layer"]
+__all__ = ["Fabrication", "fabrication", "cutting_list", "write_csv", "write_dxf", "type_layer", "DXF_UNITS"]
+
+#: model units (Rhino's names, as a .3dm file gives them) → the DXF header's ``$INSUNITS`` code; a model whose units
+#: are not known is written unitless (0): a DXF reader then asks or assumes, where a wrong unit would scale every
+#: panel by 1000 (a millimetre model read as metres)
+DXF_UNITS = {"Inches": 1, "Feet": 2, "Miles": 3, "Millimeters": 4, "Centimeters": 5, "Meters": 6, "Kilometers": 7,
+             "Microinches": 8, "Mils": 9, "Yards": 10, "Angstroms": 11, "Nanometers": 12, "Microns": 13,
+             "Decimeters": 14, "Dekameters": 15, "Hectometers": 16, "Gigameters": 17, "AstronomicalUnits": 18,
+             "LightYears": 19, "Parsecs": 20}
 
 
 class Fabrication(NamedTuple):
@@ -195,12 +203,13 @@ def type_layer(t: int) -> str:
     return f"TYPE_{int(t):03d}"
 
 
-def write_dxf(path, fab: Fabrication) -> Path:
+def write_dxf(path, fab: Fabrication, units: str | None = None) -> Path:
     """Write the flat panels laid out on their sheets as DXF (AutoCAD 2010); returns the path.
 
     Every panel is one closed LWPOLYLINE on the layer of its type (:func:`type_layer`) with its label as a TEXT
     entity centred on it on the same layer; every sheet is a closed LWPOLYLINE on layer ``SHEETS``. Coordinates are
-    the model's units.
+    the model's units, and the header says which (``$INSUNITS`` from ``units``, a name of :data:`DXF_UNITS`, e.g.
+    ``"Millimeters"``; unitless when None or unknown).
 
     Example
     -------
@@ -210,12 +219,14 @@ def write_dxf(path, fab: Fabrication) -> Path:
     >>> msp = ezdxf.readfile(p).modelspace()
     >>> len(msp.query('LWPOLYLINE[layer=="TYPE_000"]')), sorted(t.dxf.text for t in msp.query("TEXT"))
     (4, ['A01', 'A02', 'B01', 'B02'])
+    >>> ezdxf.readfile(write_dxf(p, fabrication(*quad_grid(2, 2)), "Millimeters")).units
+    4
     """
     import ezdxf  # deferred import: ezdxf costs 0.5 s at import; only the DXF export needs it
     from ezdxf.enums import TextEntityAlignment  # deferred import: with ezdxf above
 
     flat, lay, types = fab.flat, fab.layout, fab.types
-    doc = ezdxf.new("R2010")
+    doc = ezdxf.new("R2010", units=DXF_UNITS.get(units, 0))
     msp = doc.modelspace()
     doc.layers.add("SHEETS", color=8)
     for t in range(len(types.counts)):

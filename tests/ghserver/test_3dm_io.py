@@ -10,7 +10,7 @@ import pytest
 rhino3dm = pytest.importorskip("rhino3dm")
 
 from components.core.errors import InputError  # noqa: E402
-from components.core.mesh import quad_grid, read_mesh, read_stl, triangulate  # noqa: E402
+from components.core.mesh import quad_grid, read_mesh, read_stl, triangulate, write_obj  # noqa: E402
 from components.core.types import NurbsSurface  # noqa: E402
 from components.surfaces.generators import surface_mesh  # noqa: E402
 from ghserver import cli  # noqa: E402
@@ -81,7 +81,7 @@ def test_not_an_stl_is_a_typed_error(tmp_path):
 def test_3dm_mesh_round_trip_exact(tmp_path):
     V, Q = _dome(5e6, 1.0)
     path = write_meshes_3dm(tmp_path / "m.3dm", [("design", "roof", V, Q)])
-    V2, F2, notes = read_model(path)
+    V2, F2, notes, _ = read_model(path)
     assert np.array_equal(V2, V) and np.array_equal(F2, Q)
     assert "'roof'" in notes[0] and "'design'" in notes[0]
 
@@ -93,7 +93,7 @@ def test_3dm_nurbs_surface_and_brep_meshed_on_the_surface(tmp_path):
         model.Objects.AddSurface(geo) if isinstance(geo, rhino3dm.Surface) else model.Objects.AddBrep(geo)
         path = tmp_path / "srf.3dm"
         assert model.Write(str(path), 7)
-        V, T, notes = read_3dm(path, segments=12)
+        V, T, notes, _ = read_3dm(path, segments=12)
         ref = surface_mesh(srf, 12, 12).mesh
         assert T.shape[1] == 3 and np.array_equal(T, ref[1])
         assert np.abs(V - ref[0]).max() <= 1e-12 * np.abs(ref[0]).max()
@@ -147,3 +147,62 @@ def test_fabricate_accepts_3dm(tmp_path, capsys):
     assert cli.main(["fabricate", str(model), "--out", str(tmp_path / "fab")]) == 0
     assert (tmp_path / "fab" / "panels.3dm").exists()
     assert "6 panels" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("units, dxf_code", [("Meters", 6), ("Millimeters", 4), ("Feet", 2), (None, 0)])
+def test_fabricate_writes_the_model_units_into_the_dxf_and_the_3dm(tmp_path, capsys, units, dxf_code):
+    # a model in metres must not come back labelled millimetres (rhino3dm's default) or a mm model as metres (ezdxf's):
+    # a reader that honours the units would scale every panel by 1000
+    import ezdxf
+
+    V, Q = quad_grid(3, 2, 2.0, 1.0)
+    model = write_meshes_3dm(tmp_path / "panels.3dm", [("p", "flat", V, Q)], units=units)
+    assert read_model(model).units == units
+    assert cli.main(["fabricate", str(model), "--out", str(tmp_path / "fab")]) == 0
+    out = capsys.readouterr().out
+    assert ezdxf.readfile(tmp_path / "fab" / "panels_panels.dxf").units == dxf_code
+    back = rhino3dm.File3dm.Read(str(tmp_path / "fab" / "panels.3dm")).Settings.ModelUnitSystem.name
+    assert back == (units or "None")
+    assert ("does not say its units" in out) == (units is None)
+
+
+def test_fabricate_units_option_for_files_without_units(tmp_path, capsys):
+    import ezdxf
+
+    V, Q = quad_grid(3, 2, 2000.0, 1000.0)
+    obj = tmp_path / "roof.obj"
+    write_obj(obj, V, Q)
+    assert read_model(obj).units is None
+    assert cli.main(["fabricate", str(obj), "--units", "mm", "--out", str(tmp_path / "fab")]) == 0
+    assert "does not say its units" not in capsys.readouterr().out
+    assert ezdxf.readfile(tmp_path / "fab" / "roof_panels.dxf").units == 4
+    assert rhino3dm.File3dm.Read(str(tmp_path / "fab" / "roof.3dm")).Settings.ModelUnitSystem.name == "Millimeters"
+    with pytest.raises(SystemExit):  # argparse refuses a unit it does not list
+        cli.main(["fabricate", str(obj), "--units", "furlong"])
+
+
+def test_report_results_3dm_keeps_the_meshes_units(tmp_path):
+    V, Q = quad_grid(4, 4, 4000.0, 4000.0)
+    V[:, 2] = 1e-4 * (V[:, 0] - 2000.0) * (V[:, 1] - 2000.0)
+    model = write_meshes_3dm(tmp_path / "roof.3dm", [("roof", "roof", V, triangulate(Q)[0])], units="Millimeters")
+    summary = run_report(tmp_path / "out", surfaces=(), mesh_files=[model], progress=False,
+                         strategies=["translation"], settings=QUICK)
+    back = rhino3dm.File3dm.Read(str(summary.out_dir / "results.3dm"))
+    assert back.Settings.ModelUnitSystem.name == "Millimeters"
+
+
+def test_a_single_precision_3dm_mesh_far_from_the_origin_gets_a_note(tmp_path):
+    V, Q = quad_grid(3, 3, 3000.0, 3000.0)
+    for shift, noted in ((0.0, False), (5e6, True)):
+        W = (V + shift).astype(np.float32).astype(np.float64)  # what a single-precision export keeps
+        mesh = rhino3dm.Mesh()
+        for x, y, z in W.tolist():
+            mesh.Vertices.Add(x, y, z)
+        for f in Q.tolist():
+            mesh.Faces.AddFace(*f)
+        m = rhino3dm.File3dm()
+        m.Objects.AddMesh(mesh)
+        path = tmp_path / f"single_{int(shift)}.3dm"
+        assert m.Write(str(path), 7)
+        notes = " ".join(read_model(path).notes)
+        assert ("single-precision" in notes and "rounded by up to 0.25" in notes) == noted

@@ -154,4 +154,4 @@ def test_readme_fabrication_example_runs_and_prints_what_it_says(tmp_path, monke
     assert round(printed[2][0], 1) == 14.3 and printed[3][0] < 1e-12  # 1/4 rad between the rows; conical
     assert (tmp_path / "roof.obj").exists()
     assert (tmp_path / "roof_panels.dxf").exists() and (tmp_path / "roof_cutting_list.csv").exists()
-    assert "ghserver fabricate roof.obj --out fabrication" in section
+    assert "ghserver fabricate roof.obj --units m --out fabrication" in section
