@@ -194,7 +194,7 @@ def _pair_distances(level: _Level, Z: np.ndarray, clusters, leaders, mirror: boo
 
 
 def _leader_level(level: _Level, sig: np.ndarray, Z: np.ndarray, weight: np.ndarray, tau: float, mirror: bool,
-                  block: int = 256):
+                  tie: float = 0.0, block: int = 256):
     """Group the clusters of one level into clusters within ``tau`` of a leader's representative.
 
     Clusters are visited biggest first (ties: smaller first item), in blocks. A cluster joins the nearest leader
@@ -202,7 +202,10 @@ def _leader_level(level: _Level, sig: np.ndarray, Z: np.ndarray, weight: np.ndar
     earlier leader of its own block; failing that, it leads a new cluster and keeps its representative. Leaders
     are found by their signatures (an item within ``tau`` of a leader has a signature within ``2 tau`` of the
     leader's; a k-d tree over the leaders, rebuilt as they grow), so the cost grows with the clusters and the
-    leaders near each, not with the pairs of panels within the tolerance.
+    leaders near each, not with the pairs of panels within the tolerance. Leaders nearer than ``tie`` to each other's
+    distance count as equally near (a symmetric panelling's mirror-image leaders are at one distance, but in other
+    units or at site coordinates their computed distances differ in the last bits): the first leader visited wins,
+    so the types are the same at every scale and placement.
     """
     n = len(level.rep)
     rep = level.rep
@@ -211,6 +214,8 @@ def _leader_level(level: _Level, sig: np.ndarray, Z: np.ndarray, weight: np.ndar
     wsum = np.add.reduceat(weight[level.items], heads)
     first = np.minimum.reduceat(level.items, heads)
     order = np.lexsort((first, -wsum))
+    visit_rank = np.empty(n, dtype=np.int64)
+    visit_rank[order] = np.arange(n)
     cl = np.repeat(np.arange(n), counts)
     spread = np.maximum.reduceat(np.abs(sig[level.items] - sig[rep[cl]]).max(axis=1), heads)
     radius = 2.0 * tau * (1.0 + 1e-9) + spread
@@ -240,10 +245,7 @@ def _leader_level(level: _Level, sig: np.ndarray, Z: np.ndarray, weight: np.ndar
             comparisons += len(d)
             ok = d <= tau
             pc, pl, d = pc[ok], pl[ok], d[ok]
-            o = np.lexsort((pl, d, pc))  # per cluster the nearest leader first
-            firsts = np.ones(len(o), dtype=bool)
-            firsts[1:] = pc[o][1:] != pc[o][:-1]
-            leader_of[pc[o][firsts]] = pl[o][firsts]
+            leader_of[np.unique(pc)] = _nearest_first(pc, pl, d, visit_rank[pl], tie)
         rest = blk[leader_of[blk] < 0]
         if len(rest):
             R = sig[rep[rest]]
@@ -260,9 +262,10 @@ def _leader_level(level: _Level, sig: np.ndarray, Z: np.ndarray, weight: np.ndar
                         dist.setdefault(vi, []).append((di, ui))
             new = set()
             for vi, c in enumerate(rest.tolist()):
-                cands = sorted(x for x in dist.get(vi, ()) if x[1] in new)
+                cands = [x for x in dist.get(vi, ()) if x[1] in new]
                 if cands:
-                    leader_of[c] = rest[cands[0][1]]
+                    near = min(x[0] for x in cands) + tie
+                    leader_of[c] = rest[min(ui for di, ui in cands if di <= near)]  # ties: the first visited
                 else:
                     leader_of[c] = c
                     new.add(vi)
@@ -280,6 +283,20 @@ def _leader_level(level: _Level, sig: np.ndarray, Z: np.ndarray, weight: np.ndar
     items, cnt = _segments(level, grouped)
     sizes = np.bincount(pos[leader_of], weights=counts, minlength=len(leads)).astype(np.int64)
     return _Level(rep[leads], items, np.r_[0, np.cumsum(sizes)]), comparisons
+
+
+def _nearest_first(pc: np.ndarray, pl: np.ndarray, d: np.ndarray, rank: np.ndarray, tie: float) -> np.ndarray:
+    """For every cluster in ``pc`` (sorted unique order) the leader ``pl`` of the candidate pairs ``(pc, pl)`` at
+    distance ``d`` that is nearest, counting distances within ``tie`` of the nearest as equal and then taking the
+    leader of the lowest ``rank`` (visited first)."""
+    o = np.lexsort((d, pc))
+    pc, pl, d, rank = pc[o], pl[o], d[o], rank[o]
+    starts = np.r_[0, np.flatnonzero(pc[1:] != pc[:-1]) + 1]
+    near = np.repeat(d[starts], np.diff(np.r_[starts, len(pc)])) + tie
+    ok = d <= near
+    o = np.lexsort((rank, ~ok, pc))  # per cluster: the candidates within the tie first, by rank
+    firsts = np.r_[True, pc[o][1:] != pc[o][:-1]]
+    return pl[o][firsts]
 
 
 def congruence_types(outline, sizes, tolerance: float, tolerances=(), mirror: bool = True) -> PanelTypes:
@@ -359,7 +376,7 @@ def congruence_types(outline, sizes, tolerance: float, tolerances=(), mirror: bo
         level = _Level(np.arange(len(heads)), np.arange(len(heads)), np.arange(len(heads) + 1))
         hsig, hZ = sig[heads], Zs[heads]
         for q, tau in enumerate(taus.tolist()):
-            level, n_cmp = _leader_level(level, hsig, hZ, weight, tau, mirror)
+            level, n_cmp = _leader_level(level, hsig, hZ, weight, tau, mirror, tie=delta)
             comparisons += n_cmp
             type_counts[q] += len(level.rep)
             if q == at:

@@ -327,6 +327,28 @@ def test_type_counts_never_increase_with_the_tolerance(seed, n, noise, taus, mir
     assert res.counts.sum() == len(Q) and np.all(np.diff(res.counts) <= 0)
 
 
+def test_types_of_a_symmetric_panelling_are_the_same_in_mm_and_at_site_coordinates():
+    # a translation surface on uneven, symmetric steps: its mirror-image panels are at one alignment distance from a
+    # leader, which round-off in other units or at +5e6 used to split differently (51/47/41/21 types in m, 20 at
+    # the last level in mm; found by an audit)
+    s = np.linspace(-1.0, 1.0, 13)
+    s = np.sign(s) * np.abs(s) ** 1.3
+    t = np.linspace(-1.0, 1.0, 10)
+    G = np.stack([5.0 * s, np.zeros_like(s), 2.0 * (1 - s ** 2)], 1)
+    D = np.stack([np.zeros_like(t), 3.5 * t, 1.2 * (1 - t ** 2)], 1)
+    V = (G[None, :, :] + D[:, None, :]).reshape(-1, 3)
+    idx = np.arange(13 * 10).reshape(10, 13)
+    Q = np.stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()], 1)
+    for mirror in (False, True):
+        for tol in np.geomspace(2e-3, 0.1, 9):
+            seen = set()
+            for scale, shift in ((1.0, 0.0), (1000.0, 0.0), (1.0, 5e6), (1000.0, 5e9)):
+                r = panel_types((V * scale + shift, Q), tolerance=tol * scale * 10,
+                                tolerances=[tol * scale * k for k in (1, 2, 5, 10)], mirror=mirror)
+                seen.add((tuple(r.type_counts.tolist()), tuple(r.types.tolist())))
+            assert len(seen) == 1, (mirror, tol, seen)
+
+
 def test_panel_types_component_defaults_and_tolerance_list():
     V, F = translation_net(10)
     res = panel_types((V, F))
