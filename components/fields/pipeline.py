@@ -200,9 +200,10 @@ def pq_from_conjugate_field(mesh: Mesh, target_length: float, alignment: float =
     k = max(range(len(outs)), key=lambda i: outs[i].rank)  # the best outcome (the better-ranked candidate of a tie)
     cand, out = cands[k], outs[k]
     if k:
-        out.warnings.insert(0, f"the best-ranked candidate ({len(cands[0].F)} panels) did not planarize into healthy "
-                               f"panels ({outs[0].why}); healthy candidate {k + 1} of the ranking ({len(cand.F)} "
-                               "panels) did better and is returned")
+        short = "did not planarize into healthy panels" if not outs[0].healthy else "did not reach the tolerance"
+        out.warnings.insert(0, f"the best-ranked candidate ({len(cands[0].F)} panels) {short} ({outs[0].why}); "
+                               f"healthy candidate {k + 1} of the ranking ({len(cand.F)} panels) did better and is "
+                               "returned")
     tp = time.perf_counter() - t
     q, health, healthy, warnings = out.quality, out.health, out.healthy, out.warnings
     (Vp, Fp), pmax, pmean, cmean, cmax = out.planarized

@@ -75,8 +75,8 @@ from components.metrics.health import face_health
 from components.planarize.guard import health_bounds, panel_guard
 from components.planarize.inputs import centred_reference, prepared_mesh
 from components.planarize.phases import final_state, iterate
-from components.planarize.problem import OPT_ITERATIONS, checked_options, setup_problem
-from components.planarize.verdict import backed_off_reason, healthy_backoff, result_verdict
+from components.planarize.problem import OPT_ITERATIONS, SNAP, checked_options, setup_problem
+from components.planarize.verdict import backed_off_reason, healthy_backoff, planarity_line, result_verdict
 
 __all__ = ["PlanarizeResult", "planarize", "on_surface", "planarize_mesh"]
 
@@ -379,6 +379,13 @@ def _measured(prob, guard, run, X, ref, given, offset) -> _Measures:
     stars = prob.stars
     con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
     warp = warping_height(X, Fw)
+    if run.converged and planarity_line(prob.opts, pl, warp):  # met in the solver's coordinates only
+        val, tol = (warp.max(), prob.opts.absolute_tolerance) if prob.opts.use_abs else (pl.max(), prob.opts.tolerance)
+        run.converged = False
+        run.stop_reason = (f"the solver reached the tolerance but the returned mesh does not ({val:.4g} = "
+                           f"{val / tol:.4g} × the tolerance): its fixed vertices are returned exactly as given and "
+                           f"its coordinates in model units are rounded, which a tolerance this fine does not absorb "
+                           f"(the solver's coordinates are on a grid of {SNAP:.2g} mean edges)")
     verdict = result_verdict(prob, guard, run, X, given, pl, warp, con, min_angle, n_ncv, offset)
     return _Measures(pl, d, np.unique(Fw), min_angle, n_ncv, con, warp, verdict)
 
