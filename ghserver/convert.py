@@ -167,6 +167,8 @@ def decode_object(data, limits: dict | None = None):
     (:class:`TooLargeError`) before rhino3dm reads it.
     """
     blob = parse_blob(data)
+    if _onmesh is not None and not _onmesh.object_archive(blob):  # before rhino3dm, which can spin on random bytes
+        raise DecodeError("geometry data could not be decoded (not a Rhino object archive)")
     check_inflated_size(blob, limits)
     try:
         obj = rhino3dm.CommonObject.Decode(blob)

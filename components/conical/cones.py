@@ -21,10 +21,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from components.core.checks import check_choice, check_mesh, check_number
+from components.core.checks import check_choice, check_length, check_mesh, check_number
 from components.core.errors import InputError
 from components.core.measures import corner_angles, quad_planarity
-from components.core.mesh import Corners, edge_topology, face_corners, face_sizes
+from components.core.mesh import Corners, bounding_box_diagonal, edge_topology, face_corners, face_sizes
 from components.core.types import Integers, Lines, Mesh, Numbers
 
 log = logging.getLogger(__name__)
@@ -741,7 +741,7 @@ def offset(mesh: Mesh, distance: float = 0.1, method: str = "face") -> OffsetRes
     True
     """
     V, F = check_mesh(mesh, "mesh")
-    d = check_number(distance, "distance")
+    d = check_length(distance, "distance", bounding_box_diagonal(V))
     if d == 0:
         raise InputError("distance", "must be non-zero")
     check_choice(method, "method", ("face", "vertex"))

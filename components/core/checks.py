@@ -127,6 +127,29 @@ def check_number(value, name: str, lo: float | None = None, hi: float | None = N
     return x
 
 
+#: :func:`check_length`: a length more than this many times the model's size is refused
+MAX_LENGTH_RATIO = 1e6
+
+
+def check_length(value, name: str, size: float, lo: float | None = None) -> float:
+    """A length input (:func:`check_number`, bounded below by ``lo``) at most :data:`MAX_LENGTH_RATIO` × ``size``,
+    the model's size (its bounding-box diagonal) in magnitude: an offset, a beam or a gap of 1e300 made coordinates
+    that no float (nor Rhino's single-precision display copy) holds, and the answer failed as an internal error.
+
+    >>> check_length(0.2, "distance", 10.0)
+    0.2
+    >>> check_length(1e300, "distance", 10.0)
+    Traceback (most recent call last):
+    ...
+    components.core.errors.InputError: distance: 1e+300 is more than 1e+06 × the model's size (10); give a length in the model's units
+    """
+    x = check_number(value, name, lo)
+    if abs(x) > MAX_LENGTH_RATIO * size:
+        raise InputError(name, f"{x:g} is more than {MAX_LENGTH_RATIO:g} × the model's size ({size:.3g}); give a "
+                               "length in the model's units")
+    return x
+
+
 def check_choice(value, name: str, choices: Iterable[str], *, casefold: bool = False) -> str:
     """A text input that must be one of a fixed set of words.
 

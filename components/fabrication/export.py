@@ -14,8 +14,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_choice, check_number
+from components.core.checks import check_choice, check_length, check_number
 from components.core.measures import norm
+from components.core.mesh import bounding_box_diagonal
 from components.fabrication.congruence import PanelTypes, congruence_types, default_tolerance
 from components.fabrication.kinks import Dihedrals, dihedral_angles, panel_kinks
 from components.fabrication.nodes import AXES, BeamFrames, SupportAxes, beam_frames, support_axes
@@ -105,8 +106,10 @@ def fabrication(V, F, tolerance: float = 0.0, tolerances=(), mirror: bool = True
     check_choice(axes, "axes", AXES)
     tolerance = check_number(tolerance, "tolerance", 0)
     kink_limit = check_number(kink_limit, "kink_limit", 0, 180)
-    h = check_number(beam_height, "beam_height", 0)
-    w = check_number(beam_width, "beam_width", 0)
+    size = bounding_box_diagonal(V)
+    h = check_length(beam_height, "beam_height", size, 0)
+    w = check_length(beam_width, "beam_width", size, 0)
+    check_length(gap, "gap", size, 0)
     flat = flat_panels(V, F, method=method)
     layout = sheet_layout(flat, sheet_width, sheet_height, gap)
     tol = default_tolerance(flat, tolerance)

@@ -16,9 +16,9 @@ from typing import NamedTuple
 import numpy as np
 
 from components.conical.cones import conical_check, face_offset
-from components.core.checks import check_choice, check_number
+from components.core.checks import check_choice, check_length
 from components.core.measures import cross, dot, face_data, least_squares_planes, norm, quad_planarity, unit
-from components.core.mesh import edge_topology, face_corners
+from components.core.mesh import bounding_box_diagonal, edge_topology, face_corners
 from components.core.types import Lines, Mesh, Meshes, Numbers, Plane, Vectors
 from components.fabrication.panels import Planes, checked_panelling, outward_sign, unwelded_warning
 
@@ -250,8 +250,9 @@ def nodes(mesh: Mesh, beam_height: float = 0.0, beam_width: float = 0.0, axes: s
     ('offset', 0.0, 12)
     """
     V, F, unwelded = checked_panelling(mesh)
-    h = check_number(beam_height, "beam_height", 0)
-    w = check_number(beam_width, "beam_width", 0)
+    size = bounding_box_diagonal(V)
+    h = check_length(beam_height, "beam_height", size, 0)
+    w = check_length(beam_width, "beam_width", size, 0)
     check_choice(axes, "axes", AXES)
     sa = support_axes(V, F, axes)
     fr = beam_frames(V, F, sa.axes)

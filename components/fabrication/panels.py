@@ -18,7 +18,7 @@ from typing import Annotated, NamedTuple
 
 import numpy as np
 
-from components.core.checks import check_choice, check_mesh, check_number, zero_edge_error
+from components.core.checks import check_choice, check_length, check_mesh, check_number, zero_edge_error
 from components.core.errors import InputError, MeshError
 from components.core.measures import cross, dot, face_data, least_squares_planes, norm, unit
 from components.core.mesh import (WELD_FRACTION, bounding_box_diagonal, boundary_loops, boundary_vertex_mask,
@@ -583,8 +583,8 @@ def sheet_layout(flat: FlatPanels, sheet_width: float = 0.0, sheet_height: float
     ([0, 0, 0], 1)
     """
     gap = check_number(gap, "gap", 0)
-    W = check_number(sheet_width, "sheet_width")
-    H = check_number(sheet_height, "sheet_height")
+    W = check_number(sheet_width, "sheet_width", 0)
+    H = check_number(sheet_height, "sheet_height", 0)
     m = len(flat.ids)
     w = flat.rect_width.copy()
     h = flat.rect_height.copy()
@@ -807,9 +807,10 @@ def panels(mesh: Mesh, sheet_width: float = 0.0, sheet_height: float = 0.0, gap:
     (['A01', 'A02'], 1, [1.0, 1.0])
     """
     V, F, _ = checked_panelling(mesh)
-    gap = check_number(gap, "gap", 0)
-    sheet_width = check_number(sheet_width, "sheet_width")
-    sheet_height = check_number(sheet_height, "sheet_height")
+    size = bounding_box_diagonal(V)
+    gap = check_length(gap, "gap", size, 0)
+    sheet_width = check_length(sheet_width, "sheet_width", size, 0)
+    sheet_height = check_length(sheet_height, "sheet_height", size, 0)
     flat = flat_panels(V, F, method=method, orientation=orientation)
     layout = sheet_layout(flat, sheet_width, sheet_height, gap)
     warnings: list[str] = []

@@ -961,6 +961,9 @@ def evenly_spaced_streamlines(V: np.ndarray, T: np.ndarray, U: np.ndarray, W: np
     sep = check_number(separation, "separation", 0, above=True)
     ratio, extend_ratio = _separation_ratios(test_ratio, extend_ratio)
     h0 = _mean_edge(V, T)
+    # a separation past the surface's size spaces one line per family, as its size does (1e300 overflowed the
+    # lines' step counts)
+    sep = min(sep, 4.0 * float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) + h0)
     step = min(0.25 * sep, 0.5 * h0) if step is None else check_number(step, "step", 0, above=True)
     area = 0.5 * float(np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum())
     _check_point_budget(area, sep, step)

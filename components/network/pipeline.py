@@ -48,13 +48,13 @@ import numpy as np
 from components.conical.cones import cone_fit, conical_criterion, face_offset
 from components.conical.optimize import conical_solve
 from components.core.blas import single_blas_thread
-from components.core.checks import boundary_gap_warning, check_choice, check_mesh, check_number
+from components.core.checks import boundary_gap_warning, check_choice, check_length, check_mesh, check_number
 from components.core.conformal import NOT_A_DISK_REFUSAL
 from components.core import deadline, progress
 from components.core.errors import InputError, MeshError
 from components.core.measures import max_quad_planarity
-from components.core.mesh import (boundary_vertex_mask, edge_topology, face_corners, face_lists, face_sizes, pad_faces,
-                                  triangulate)
+from components.core.mesh import (boundary_vertex_mask, bounding_box_diagonal, edge_topology, face_corners, face_lists,
+                                  face_sizes, pad_faces, triangulate)
 from components.core.types import Curves, Lines, Mesh, Texts
 from components.core.frame import IDENTITY, bounding_frame
 from components.fields.candidate import checked_inputs, framed_candidate
@@ -339,9 +339,9 @@ def curvature_pipeline(mesh, panel_size: float, optimize: bool = True, offset: f
     """
     t = {} if timings is None else timings
     t0 = time.perf_counter()
-    d = check_number(offset, "offset")
     check_choice(boundary_cells, "boundary_cells", BOUNDARY_CELLS)
     V0, F0 = check_mesh(mesh, "mesh")
+    d = check_length(offset, "offset", bounding_box_diagonal(V0))
     h = check_number(panel_size, "panel_size", 0, above=True)
     T0 = F0 if F0.shape[1] == 3 else triangulate(F0)[0]
     check_target_fits(V0, T0, h, "panel_size")  # in the units given

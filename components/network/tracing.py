@@ -495,7 +495,7 @@ def curvature_network(mesh: Mesh, panel_size: float, umbilic_threshold: float = 
     >>> res.count_1 > 3 and res.count_2 > 3
     True
     """
-    radius = check_int(radius, "radius", 1)
+    radius = check_int(radius, "radius", 1, 6)  # as fields/principal_curvature: a wider ring is all of the mesh
     V, T, net = network_for_mesh(mesh, panel_size, umbilic_threshold, radius)
     return CurvatureNetworkResult(
         lines_1=net.lines_1,

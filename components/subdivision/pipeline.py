@@ -47,7 +47,7 @@ from components.planarize.planarizer import planarize_mesh
 from components.planarize.verdict import backed_off_reason
 from components.subdivision.coarse import check_disk_surface, coarse_net, ogrid_size
 from components.subdivision.pull import pulled_subdivision, pulled_vertices
-from components.subdivision.subdivide import control_mesh, face_count_after, subdivided_mesh
+from components.subdivision.subdivide import MAX_LEVELS, control_mesh, face_count_after, subdivided_mesh
 
 log = logging.getLogger(__name__)
 
@@ -327,7 +327,7 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
     depend on units or placement.
     """
     # ---- every check first (cheap)
-    levels = check_int(levels, "levels", 0)
+    levels = check_int(levels, "levels", 0, MAX_LEVELS)  # (more: a count of hundreds of millions of digits)
     tolerance = check_number(tolerance, "tolerance", 0.0, above=True)
     max_faces = check_int(max_faces, "max_faces", 1)
     faces = check_int(faces, "faces", 4)
@@ -345,6 +345,9 @@ def subdivision_pq(V, T, coarse=None, levels: int = 2, planarize: bool = True, f
         # the aligned net's face count is known only after the field pipeline: bound it by 1.5 × the target
         total = max(n * n + 4 * n * k, math.ceil(1.5 * faces)) * 4 ** levels
     if total > max_faces:
+        if coarse is None and total // 4 ** levels > max_faces:  # the net alone is too fine
+            raise InputError("faces", f"a coarse net of {faces:,} faces is more than the limit of {max_faces:,} "
+                                      "(max_faces); ask for fewer faces")
         raise InputError("levels", f"{levels} levels would make {total:,} faces, more than the limit of "
                          f"{max_faces:,} (max_faces); use fewer levels or a coarser net")
     # ---- heavy work

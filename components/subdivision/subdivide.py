@@ -41,6 +41,7 @@ meshes and developable surfaces", SIGGRAPH 2006 (subdivide a coarse net, then pl
 from __future__ import annotations
 
 import logging
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -53,10 +54,13 @@ from components.core.types import Integers, Mesh
 
 log = logging.getLogger(__name__)
 
+MAX_LEVELS = 64  # more levels are refused before any count or work (4^63 × the corners: no memory holds them)
+
 __all__ = [
     "BOUNDARY_RULES",
     "DEFAULT_CORNER_ANGLE",
     "MAX_FACES",
+    "MAX_LEVELS",
     "LevelInfo",
     "SubdivisionInfo",
     "SubdivisionStep",
@@ -409,11 +413,14 @@ def subdivided_mesh(V, F, levels: int = 1, boundary: str = "crease", corners=Non
     max_faces = check_number(max_faces, "max_faces", 1, finite=False)
     V, F = control_mesh(V, F, name=name)
     corners = _check_corners(corners, len(V))
-    total = face_count_after(F, levels)
-    if total > max_faces:
-        raise InputError(
-            "levels", f"{levels} levels would make {total:,} faces, more than the limit of {int(max_faces):,} "
-            f"(max_faces); use fewer levels or a coarser mesh")
+    # (4^63 times the corners passes any memory: no need to compute the exact count of a billion levels, a number
+    # of 600 million digits)
+    total = face_count_after(F, min(levels, MAX_LEVELS))
+    if levels > MAX_LEVELS or total > max_faces:
+        count = f"{total:,}" if levels <= MAX_LEVELS else f"more than {total:.3g}"
+        limit = f"the limit of {int(max_faces):,} (max_faces)" if math.isfinite(max_faces) else "any computer holds"
+        raise InputError("levels", f"{levels} levels would make {count} faces, more than {limit}; use fewer levels "
+                                   "or a coarser mesh")
     t = _topology(V, F, len(V), boundary, corners, corner_angle)
     infos = [_level_info(0, len(V), F, t)]
     fixed = np.nonzero(t.corner)[0]

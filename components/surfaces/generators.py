@@ -36,7 +36,7 @@ from components.surfaces.curves import (
     full_knots,
     sample_curve,
 )
-from components.core.checks import check_choice, check_int, check_number, check_points
+from components.core.checks import MAX_LENGTH_RATIO, check_choice, check_int, check_number, check_points
 from components.core.errors import InputError
 from components.core.measures import quad_planarity
 from components.core.mesh import face_normals
@@ -270,8 +270,7 @@ def translation(
     """
     check_choice(sampling, "sampling", SAMPLING_MODES)
     check_choice(translate, "translate", TRANSLATE_MODES)
-    cu = check_int(count_u, "count_u", 1)
-    cv = check_int(count_v, "count_v", 1)
+    cu, cv = grid_counts(count_u, count_v)
     g = as_curve(generatrix, "generatrix")
     d = as_curve(directrix, "directrix")
     sg = _sample(g, cu, sampling, "generatrix", equal_steps and translate == "directrix")
@@ -374,8 +373,7 @@ def scale_translation(
     (20, True, 0.59049)
     """
     check_choice(sampling, "sampling", SAMPLING_MODES)
-    cu = check_int(count_u, "count_u", 1)
-    cv = check_int(count_v, "count_v", 1)
+    cu, cv = grid_counts(count_u, count_v)
     scale = check_number(scale, "scale", 0, above=True)
     g = as_curve(generatrix, "generatrix")
     d = as_curve(directrix, "directrix")
@@ -396,6 +394,11 @@ def scale_translation(
     else:
         factors = np.full(steps, scale)
     S = np.concatenate([[1.0], np.cumprod(factors)])
+    if not (np.isfinite(S).all() and S.max() <= MAX_LENGTH_RATIO and S.min() >= 1.0 / MAX_LENGTH_RATIO):
+        raise InputError("scale_factors" if scale_factors is not None else "scale",
+                         f"the sections would be scaled from 1 to {float(np.max(S)):.3g} (smallest "
+                         f"{float(np.min(S)):.3g}) over {steps} steps: more than {MAX_LENGTH_RATIO:g} times apart; "
+                         "use factors nearer 1 or fewer steps")
     if centre is None:
         c0 = sg.points.mean(axis=0)
     else:
@@ -483,8 +486,7 @@ def paraboloid(
     b = check_number(span_v, "span_v", 0, above=True)
     hu = check_number(rise_u, "rise_u")
     hv = check_number(rise_v, "rise_v")
-    cu = check_int(count_u, "count_u", 1)
-    cv = check_int(count_v, "count_v", 1)
+    cu, cv = grid_counts(count_u, count_v)
     sign = 1.0 if kind == "elliptic" else -1.0
     knots = np.array([0.0, 0.0, 1.0, 1.0])
     G = NurbsCurve(
@@ -614,6 +616,22 @@ class SurfaceMeshResult(NamedTuple):
 _MAX_GRID_VERTICES = 4_000_000
 
 
+def grid_counts(count_u, count_v) -> tuple[int, int]:
+    """``count_u`` and ``count_v`` checked: whole numbers of at least 1 whose grid has at most
+    :data:`_MAX_GRID_VERTICES` vertices (refused before any sampling, naming the larger count).
+
+    >>> grid_counts(4, 5)
+    (4, 5)
+    """
+    cu = check_int(count_u, "count_u", 1)
+    cv = check_int(count_v, "count_v", 1)
+    if (cu + 1) * (cv + 1) > _MAX_GRID_VERTICES:
+        raise InputError("count_u" if cu >= cv else "count_v",
+                         f"{cu} × {cv} cells make {(cu + 1) * (cv + 1):,} vertices, more than the limit of "
+                         f"{_MAX_GRID_VERTICES:,}; use fewer cells")
+    return cu, cv
+
+
 def _weld(V: np.ndarray, tol: float) -> np.ndarray:
     """Map every point to the lowest-index point of its cluster of coincident points (within ``tol``)."""
     n = len(V)
@@ -706,10 +724,7 @@ def surface_mesh(
                 "edge_length", f"{h} is too small for a {len_u:.4g} × {len_v:.4g} surface ({cu} × {cv} cells)"
             )
     else:
-        cu = check_int(count_u, "count_u", 1)
-        cv = check_int(count_v, "count_v", 1)
-        if (cu + 1) * (cv + 1) > _MAX_GRID_VERTICES:
-            raise InputError("count_u", f"{cu} × {cv} cells exceed the limit of {_MAX_GRID_VERTICES} vertices")
+        cu, cv = grid_counts(count_u, count_v)
     u = np.linspace(*s.domain_u, cu + 1)
     v = np.linspace(*s.domain_v, cv + 1)
     P = surface_points(s, u, v)  # (cu+1, cv+1, 3)

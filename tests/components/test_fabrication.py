@@ -522,3 +522,32 @@ def test_network_strategy_result_has_torsion_free_interior_beams():
     out = nodes((Vo, Fo))
     interior = edge_topology(Fo).count == 2
     assert out.axis_method == "offset" and np.radians(out.torsion[interior]).max() <= 1e-9
+
+
+def test_absurd_lengths_and_counts_are_typed_errors_before_any_work():
+    # an audit's 500s: a length of 1e300 made coordinates no float holds, a billion levels a face count of 600
+    # million digits, a billion cells an out-of-memory; each is now refused naming its input, in a millisecond
+    import time
+
+    from components.conical.cones import offset
+    from components.network.tracing import curvature_network
+    from components.subdivision.subdivide import catmull_clark
+    from components.surfaces.generators import paraboloid
+
+    V, Q = translation_net(4)
+    cases = [
+        (lambda: offset((V, Q), distance=1e300), "distance"),
+        (lambda: nodes((V, Q), beam_height=1e300), "beam_height"),
+        (lambda: panels((V, Q), gap=1e300), "gap"),
+        (lambda: panels((V, Q), sheet_width=-1.0), "sheet_width"),
+        (lambda: fabrication(V, Q, beam_width=1e300), "beam_width"),
+        (lambda: catmull_clark((V, Q), levels=10**9), "levels"),
+        (lambda: paraboloid(count_v=10**9), "count_v"),
+        (lambda: curvature_network(sample_mesh("wave", 8)[:2], panel_size=1.0, radius=10**9), "radius"),
+    ]
+    for call, name in cases:
+        t = time.perf_counter()
+        with pytest.raises(InputError, match=f"^{name}: "):
+            call()
+        assert time.perf_counter() - t < 1.0, name
+    assert len(offset((V, Q), distance=0.1).offset[0]) == len(V)  # a sensible length passes
