@@ -374,6 +374,32 @@ def _estimated_size(kind: str, value) -> int:
     return 0
 
 
+def _unwelded_inputs(component: Component, kwargs: dict, said: list[str]) -> list[str]:
+    """A warning for every mesh input with vertices at exactly the same position as others (a mesh not welded, e.g.
+    a soup of faces with their own corners, as an exploded or joined-without-welding Rhino mesh is): every result
+    that follows its edges (curvature, valence, joints, subdivision, remeshing) treats it as separate pieces, and a
+    component that does not weld its input would say nothing. None where the component's own warnings speak of
+    welding already."""
+    if any("weld" in w for w in said):
+        return []
+    out = []
+    for p in component.inputs:
+        value = kwargs.get(p.name)
+        if p.kind != "Mesh" or p.access != "item" or not isinstance(value, tuple) or len(value) != 2:
+            continue
+        V, F = value
+        used = np.unique(np.asarray(F, dtype=np.int64))
+        used = used[(used >= 0) & (used < len(V))]
+        if len(used) < 2:
+            continue
+        n = len(used) - len(np.unique(np.asarray(V, dtype=np.float64)[used], axis=0))
+        if n:
+            what = "1 vertex lies" if n == 1 else f"{n} vertices lie"
+            out.append(f"{p.name}: {what} exactly on other vertices (the mesh is not welded): results that follow its "
+                       "edges treat it as separate pieces; weld it (Rhino: _Weld) and send it again")
+    return out
+
+
 def run(component: Component, req: SolveRequest, limits: dict | None = None) -> dict:
     """Solve a parsed request; raises :class:`RequestError` for bad input. Returns the response dict.
 
@@ -401,6 +427,9 @@ def run(component: Component, req: SolveRequest, limits: dict | None = None) -> 
             for w in fields["warnings"]:
                 if w not in warnings:
                     warnings.append(str(w))
+        for w in _unwelded_inputs(component, kwargs, warnings):
+            if w not in warnings:
+                warnings.append(w)
         for k, p in enumerate(component.outputs):
             value = fields[p.name]
             if value is None:  # nothing to send for this output (an empty tree)

@@ -155,3 +155,22 @@ def test_readme_fabrication_example_runs_and_prints_what_it_says(tmp_path, monke
     assert (tmp_path / "roof.obj").exists()
     assert (tmp_path / "roof_panels.dxf").exists() and (tmp_path / "roof_cutting_list.csv").exists()
     assert "ghserver fabricate roof.obj --units m --out fabrication" in section
+
+
+@pytest.mark.parametrize("uri", ["metrics/valence", "metrics/edge_lengths", "subdivision/catmull_clark",
+                                 "metrics/conical_criterion"])
+def test_an_unwelded_mesh_is_said_in_every_answer_that_follows_its_edges(client, uri):
+    # an audit: valence, edge counts, the conical criterion, Catmull-Clark on a mesh whose faces have their own
+    # corners came back wrong and silent; the server says so for every mesh input, naming it and saying "weld"
+    V, Q = quad_grid(4, 4, 4.0, 4.0)
+    V[:, 2] = 0.1 * V[:, 0] * V[:, 1]
+    soup_V, soup_F = V[Q].reshape(-1, 3), np.arange(4 * len(Q)).reshape(-1, 4)
+    said = []
+    for VV, FF in ((V, Q), (soup_V, soup_F)):
+        resp = client.post("/solve", data=json.dumps(hops_body(uri, hops_tree("mesh", [convert.encode_mesh(VV, FF)]))),
+                           content_type="application/json")
+        assert resp.status_code == 200, resp.get_data(as_text=True)
+        said.append([w for w in resp.get_json()["warnings"] if "not welded" in w])
+    assert said[0] == []
+    assert len(said[1]) == 1 and said[1][0].startswith(f"mesh: {len(soup_V) - len(V)} vertices lie exactly on other")
+    assert "weld it (Rhino: _Weld)" in said[1][0]
