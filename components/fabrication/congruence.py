@@ -37,6 +37,7 @@ __all__ = [
 
 #: panels within this fraction of the median edge length of each other are the same panel whatever the tolerance
 DEDUPE = 1e-9
+_COARSE_SHARE = 0.25  # panel_types warns at a tolerance of this × the median edge or more
 _CHUNK = 8192
 
 
@@ -520,6 +521,11 @@ def panel_types(mesh: Mesh, tolerance: float = 0.0, tolerances: Numbers | None =
     if tol < floor:
         warnings.append(f"tolerance {tol:.3g} is below the numerical floor {floor:.3g} (1e-9 × the median edge): "
                         "panels that close are one type")
+    median = floor / DEDUPE
+    if tol >= _COARSE_SHARE * median:  # e.g. a document tolerance of 0.001 on a model of nanometre-sized panels
+        source = "tolerance" if tolerance > 0 else "the document's absolute tolerance (tolerance 0)"
+        warnings.append(f"{source} {tol:.3g} is {tol / median:.3g} × the median edge {median:.3g}: panels that "
+                        "different are one type; give a tolerance in the model's units")
     res = congruence_types(flat.outline, flat.sizes, tol, extra, mirror=bool(mirror))
     over = res.worst_deviation > tol * (1 + 1e-9) + floor
     if over.any():

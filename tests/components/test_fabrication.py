@@ -551,3 +551,15 @@ def test_absurd_lengths_and_counts_are_typed_errors_before_any_work():
             call()
         assert time.perf_counter() - t < 1.0, name
     assert len(offset((V, Q), distance=0.1).offset[0]) == len(V)  # a sensible length passes
+
+
+def test_a_tolerance_near_the_panel_size_is_said():
+    # an audit: Hops sends the document's tolerance (0.001) with tolerance 0; on a model of nanometre panels every
+    # panel became one type without a word
+    V, Q = translation_net(5)
+    quiet = panel_types((V, Q), absolute_tolerance=0.001)
+    assert quiet.type_count > 1 and not any("median edge" in w for w in quiet.warnings)
+    tiny = panel_types((V * 1e-9, Q), absolute_tolerance=0.001)
+    assert tiny.type_count == 1
+    assert any(w.startswith("the document's absolute tolerance (tolerance 0) 0.001 is ") and "model's units" in w
+               for w in tiny.warnings)
