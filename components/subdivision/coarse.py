@@ -61,7 +61,7 @@ from components.core.checks import check_choice, check_int, check_mesh, check_po
 from components.core.conformal import disk_map
 from components.core.errors import InputError, MeshError
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity
-from components.core.mesh import boundary_loops, edge_topology, face_normals, pad_faces, triangulate
+from components.core.mesh import boundary_loops, edge_topology, face_normals, face_sizes, pad_faces, triangulate
 from components.core.proximity import PolylineIndex, TriangleIndex
 from components.core.types import Integers, Mesh, Numbers, Points
 from components.fields.candidate import candidate_mesh
@@ -344,9 +344,10 @@ def _judge(Vc, Qc, levels, index, min_angle: float = 15.0):
     Vs, Qs, _ = subdivided_mesh(Vc, Qc, levels=levels, name="coarse")
     X = pulled_subdivision(Vs, Qs, Vc, index.V, index.T, name="coarse").V
     pl = float(quad_planarity(X, Qs).mean())
-    ang = np.degrees(corner_angles(X, Qs)).reshape(len(Qs), -1)
-    bad = np.count_nonzero((ang.min(axis=1) < min_angle) | (ang.max(axis=1) > 180.0 - min_angle)
-                           | nonconvex_faces(X, Qs))
+    ang = np.degrees(corner_angles(X, Qs))  # corner by corner; faces of any size (levels 0: the net's own)
+    starts = np.r_[0, np.cumsum(face_sizes(Qs))[:-1]]
+    bad = np.count_nonzero((np.minimum.reduceat(ang, starts) < min_angle)
+                           | (np.maximum.reduceat(ang, starts) > 180.0 - min_angle) | nonconvex_faces(X, Qs))
     return pl, pl * (1.0 + 200.0 * bad / len(Qs)), bad
 
 

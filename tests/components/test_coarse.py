@@ -147,3 +147,13 @@ def test_bad_input(nonmanifold_fan):
         coarse_mesh(V)
     with pytest.raises(InputError, match="levels"):
         coarse_mesh((V, T), levels=-1)
+
+
+def test_a_net_meant_for_no_subdivision_is_judged_face_by_face():
+    # levels 0 judged the aligned net's own faces (triangles and pentagons beside its quads) as rows of one size:
+    # numpy's "cannot reshape array ..." reached the user as the reason the aligned layout was dropped
+    V, T, _ = sample_mesh("dome", 16)
+    for levels in (0, 1):
+        res = coarse_mesh((V, T), levels=levels, layout="auto")
+        assert not any("reshape" in w or "array" in w for w in res.warnings)
+        assert len(res.coarse[1]) > 0
