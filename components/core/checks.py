@@ -487,17 +487,33 @@ def _nonzero_areas(V, F, name: str) -> bool:
     return True
 
 
+def _raise_duplicate_faces(F, name: str):
+    """A :class:`MeshError` naming the first face given twice (the same corners, in any order), if there is one."""
+    sizes = face_sizes(F)
+    key = np.sort(np.where(np.arange(F.shape[1])[None, :] < sizes[:, None], F, -1), axis=1)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    dup = np.flatnonzero(first[inverse.ravel()] != np.arange(len(F)))
+    if len(dup):
+        i = int(dup[0])
+        raise MeshError(name, f"faces {int(first[inverse.ravel()[i]])} and {i} have the same corners "
+                              f"{F[i, :sizes[i]].tolist()} (a face given twice; {len(dup)} in all): delete the "
+                              "duplicates and send it again")
+
+
 def _manifold_oriented(F, n: int, name: str) -> bool:
     H, _ = halfedges(F)
     topo = edge_topology(F)
     if np.any(topo.count > 2):
+        _raise_duplicate_faces(F, name)  # the likely cause, said as such (an edge of 4 faces says little)
         e = int(np.argmax(topo.count > 2))
         a, b = topo.E[e].tolist()
-        raise MeshError(name, f"edge ({a}, {b}) is non-manifold: it has {int(topo.count[e])} faces")
+        raise MeshError(name, f"edge ({a}, {b}) is non-manifold: it has {int(topo.count[e])} faces; split the mesh "
+                              "there or delete the extra faces")
     # consistent orientation: each directed half-edge appears once (one int64 key per half-edge)
     dkey = np.sort(H[:, 0] * np.int64(n) + H[:, 1])
     twice = np.nonzero(dkey[1:] == dkey[:-1])[0]
     if len(twice):
+        _raise_duplicate_faces(F, name)
         a, b = divmod(int(dkey[twice[0]]), n)
         raise MeshError(
             name, f"faces are not consistently oriented: edge ({a}, {b}) is used twice in the same direction"

@@ -157,3 +157,17 @@ def test_a_net_meant_for_no_subdivision_is_judged_face_by_face():
         res = coarse_mesh((V, T), levels=levels, layout="auto")
         assert not any("reshape" in w or "array" in w for w in res.warnings)
         assert len(res.coarse[1]) > 0
+
+
+def test_a_face_given_twice_and_an_unwelded_surface_are_said_as_such():
+    # an audit: a duplicate face was reported as "edge (1, 7) is non-manifold: it has 4 faces", and an unwelded
+    # design surface sent to the subdivision strategy was told to "fill its holes"
+    from components.core.mesh import quad_grid, triangulate
+
+    V, Q = quad_grid(3, 3)
+    for F in (np.vstack([Q, Q[4:5]]), np.vstack([Q, Q[0:1, ::-1]])):
+        with pytest.raises(MeshError, match=r"^mesh: faces \d+ and 9 have the same corners .* delete the duplicates"):
+            validate_mesh(V, F)
+    T = triangulate(Q)[0]
+    with pytest.raises(MeshError, match="not welded; weld it"):
+        coarse_mesh((V[T].reshape(-1, 3), np.arange(3 * len(T)).reshape(-1, 3)))
