@@ -367,7 +367,10 @@ def _measured(prob, guard, run, X, ref, given, offset) -> _Measures:
     """What the result reports about ``X`` (model units, centred like ``ref``); its health is judged on
     ``X + offset`` (the returned positions) against ``given``, the reference as given."""
     Fw = prob.F
-    pl = quad_planarity(X, Fw)
+    # planarity and warping of the positions as returned (rounded at the placement: at +5e6 an ulp is 1e-9), taken
+    # back about the centre exactly (a difference of numbers this close is exact)
+    Xr = (X + offset) - offset
+    pl = quad_planarity(Xr, Fw)
     if ref is not None:  # the solver's index of the reference (normalized units): no second build
         d = prob.ref_index.query((X - prob.center) / prob.scale).distances * prob.scale
     else:
@@ -378,7 +381,7 @@ def _measured(prob, guard, run, X, ref, given, offset) -> _Measures:
     # the conical criterion ω1 − ω2 + ω3 − ω4 from the corner angles of the stars
     stars = prob.stars
     con = float(np.abs(ang[stars.corners] @ np.array([1.0, -1.0, 1.0, -1.0])).max()) if len(stars.center) else 0.0
-    warp = warping_height(X, Fw)
+    warp = warping_height(Xr, Fw)
     if run.converged and planarity_line(prob.opts, pl, warp):  # met in the solver's coordinates only
         val, tol = (warp.max(), prob.opts.absolute_tolerance) if prob.opts.use_abs else (pl.max(), prob.opts.tolerance)
         run.converged = False

@@ -551,3 +551,9 @@ def test_converged_is_judged_on_the_returned_mesh_at_a_tolerance_finer_than_the_
             assert "the returned mesh does not" in r.stop_reason or "tolerance" in r.stop_reason
             assert any("tolerance not reached" in w for w in r.warnings)
     assert planarize((V, F), boundary="fixed", tolerance=1e-5, time_budget=20.0).converged
+    # far from the origin the returned coordinates are rounded (an ulp at 5e6 is 1e-9): the verdict measures them
+    for tol in (1e-4, 1e-10):
+        r = planarize((V + 5e6, F), tolerance=tol, time_budget=20.0)
+        measured = float(quad_planarity(r.mesh[0] - 5e6, F).max())
+        assert measured == pytest.approx(r.max_planarity, rel=1e-9)
+        assert r.converged == (measured <= tol)
