@@ -18,6 +18,7 @@ import logging
 import multiprocessing as mp
 import os
 import queue
+import re
 import sys
 import threading
 import time
@@ -227,6 +228,18 @@ class _Worker:
             self.conn.close()
 
 
+_POINTER = re.compile(rb'"pointer"\s*:\s*"([^"\\]{1,200})"')
+
+
+def _pointer(raw) -> str | None:
+    """The component a ``/solve`` body points to, read from its first 4 KB (Hops writes the pointer before the
+    inputs), for the log and a timeout's answer; None when it is not there."""
+    if not isinstance(raw, (bytes, bytearray)):
+        return None
+    m = _POINTER.search(bytes(raw[:4096]))
+    return m.group(1).decode("utf-8", "replace") if m else None
+
+
 class WorkerPool:
     """``size`` worker processes; :meth:`solve` runs one request in an idle one.
 
@@ -364,16 +377,17 @@ class WorkerPool:
             while True:
                 remaining = limit - (time.monotonic() - started_at)
                 if cancel is not None and cancel():
-                    log.info("solve of %s cancelled: worker %d killed", uri, w.process.pid)
+                    log.info("solve of %s cancelled: worker %d killed", uri or _pointer(raw), w.process.pid)
                     self._replace(w)
                     return err(CANCELLED, "the solve was cancelled")
                 if remaining > 0 and not w.conn.poll(min(remaining, CANCEL_POLL) if cancel else remaining):
                     continue
                 if remaining <= 0:
-                    log.warning("solve of %s passed the %g s time limit: worker %d killed", uri, limit,
+                    shown = uri or _pointer(raw) or "the request"
+                    log.warning("solve of %s passed the %g s time limit: worker %d killed", shown, limit,
                                 w.process.pid)
                     self._replace(w)
-                    return err(504, f"solve of {uri or 'the request'} passed the server's time limit of {limit:g} s "
+                    return err(504, f"solve of {shown} passed the server's time limit of {limit:g} s "
                                     f"and was stopped (raise {option}, or send a smaller input)")
                 header = json.loads(w.conn.recv_bytes())
                 if "progress" in header and "status" not in header:

@@ -73,6 +73,16 @@ def test_time_limit_kills_the_solve_and_others_go_on(isolated):
     assert r.status_code == 504 and "time limit of 3 s" in r.json()["errors"][0]
 
 
+def test_a_solve_posted_to_the_pointer_url_is_named_when_it_times_out(isolated, caplog):
+    # the log said "solve of None passed the 10 s time limit" for /solve posts (an audit): the pointer names it
+    import logging
+
+    with caplog.at_level(logging.WARNING, logger="ghserver"):
+        r = requests.post(f"{isolated.url}/solve", json=hops_body("test/nap", hops_tree("seconds", ["30"])), timeout=30)
+    assert r.status_code == 504 and r.json()["errors"][0].startswith("solve of test/nap passed")
+    assert any("solve of test/nap passed" in rec.getMessage() for rec in caplog.records)
+
+
 def test_solvers_get_a_deadline_before_the_time_limit(isolated):
     """A solve's budgets end before the limit (components.core.deadline): it answers instead of being stopped."""
     from ghserver.workers import deadline_margin
