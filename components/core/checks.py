@@ -432,7 +432,7 @@ def validate_mesh(
     if F.ndim != 2 or (F.shape[0] and F.shape[1] < 3):
         raise MeshError(name, f"faces must have shape (m, k) with k >= 3, got {F.shape}")
     if len(V) == 0 or len(F) == 0:
-        raise MeshError(name, f"mesh is empty ({len(V)} vertices, {len(F)} faces)")
+        raise MeshError(name, f"mesh is empty ({len(V)} vertices, {len(F)} faces): send a mesh with faces")
     bad = ~np.isfinite(V).all(axis=1)
     if bad.any():
         raise MeshError(name, f"vertex {int(np.argmax(bad))} has a NaN or infinite coordinate")
@@ -472,7 +472,8 @@ def _distinct_corners(F, sizes, name: str) -> bool:
     rep = (Fs[:, 1:] == Fs[:, :-1]).any(axis=1)
     if rep.any():
         i = int(np.argmax(rep))
-        raise MeshError(name, f"face {i} repeats a vertex: {F[i].tolist()}")
+        raise MeshError(name, f"face {i} repeats a vertex: {F[i].tolist()}; write a triangle as (a, b, c, c), "
+                              "with the repeat last, or delete the face")
     return True
 
 
@@ -483,7 +484,9 @@ def _nonzero_areas(V, F, name: str) -> bool:
     tiny = area <= (1e-14 * scale * scale if scale > 0 else 0.0)
     if tiny.any():
         i = int(np.argmax(tiny))
-        raise MeshError(name, f"face {i} is degenerate (zero area): {F[i].tolist()}")
+        raise MeshError(name, f"face {i} is degenerate (zero area): {F[i].tolist()}"
+                              f"{f' ({int(tiny.sum())} in all)' if tiny.sum() > 1 else ''}; delete such faces (Rhino: "
+                              "_CullDegenerateMeshFaces) or move their corners apart")
     return True
 
 
