@@ -374,19 +374,22 @@ def _estimated_size(kind: str, value) -> int:
     return 0
 
 
-def _unwelded_inputs(component: Component, kwargs: dict, said: list[str]) -> list[str]:
+def _unwelded_inputs(component: Component, kwargs: dict, said: list[str], seen: set) -> list[str]:
     """A warning for every mesh input with vertices at exactly the same position as others (a mesh not welded, e.g.
     a soup of faces with their own corners, as an exploded or joined-without-welding Rhino mesh is): every result
     that follows its edges (curvature, valence, joints, subdivision, remeshing) treats it as separate pieces, and a
     component that does not weld its input would say nothing. None where the component's own warnings speak of
-    welding already."""
+    welding already. ``seen``: ids of the meshes checked before in this request (a mesh repeated over the iterations
+    is decoded once and checked once)."""
     if any("weld" in w for w in said):
         return []
     out = []
     for p in component.inputs:
         value = kwargs.get(p.name)
-        if p.kind != "Mesh" or p.access != "item" or not isinstance(value, tuple) or len(value) != 2:
+        if (p.kind != "Mesh" or p.access != "item" or not isinstance(value, tuple) or len(value) != 2
+                or id(value) in seen):
             continue
+        seen.add(id(value))
         V, F = value
         used = np.unique(np.asarray(F, dtype=np.int64))
         used = used[(used >= 0) & (used < len(V))]
@@ -415,6 +418,7 @@ def run(component: Component, req: SolveRequest, limits: dict | None = None) -> 
     ctx = _context(component, req)
     out_trees: list[dict[str, list]] = [{} for _ in component.outputs]
     warnings: list[str] = []
+    checked: set = set()  # meshes checked for welding (_unwelded_inputs)
     for path, i, n_iter, kwargs in _iterations(component, trees, limits):
         _check_list_lengths(component, kwargs)
         try:
@@ -428,7 +432,7 @@ def run(component: Component, req: SolveRequest, limits: dict | None = None) -> 
             for w in fields["warnings"]:
                 if w not in warnings:
                     warnings.append(str(w))
-        for w in _unwelded_inputs(component, kwargs, warnings):
+        for w in _unwelded_inputs(component, kwargs, warnings, checked):
             if w not in warnings:
                 warnings.append(w)
         for k, p in enumerate(component.outputs):

@@ -223,6 +223,20 @@ def check_points(P, name: str, *, allow_empty: bool = True) -> np.ndarray:
     return np.ascontiguousarray(A)
 
 
+def shared_positions(V, F) -> int:
+    """How many of the vertices the faces ``F`` use lie on another one (within
+    :data:`~components.core.mesh.STL_WELD` of the mesh's size, as :func:`~components.core.mesh.read_stl` welds: the
+    same in mm, m and at 5e6); > 0 for an unwelded mesh."""
+    V = np.asarray(V, dtype=np.float64)
+    used = np.unique(np.asarray(F, dtype=np.int64).ravel())
+    P = V[used[used < len(V)]]
+    if len(P) < 2:
+        return 0
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    label = weld_labels(P - 0.5 * (lo + hi), STL_WELD * float(np.linalg.norm(hi - lo)))
+    return len(P) - (int(label.max()) + 1)
+
+
 def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshError:
     """The error for a mesh of ``pieces`` connected pieces where one is needed: when its pieces share vertex
     positions (an unwelded mesh: every face or patch with its own copies of its corners, as an STL or a mesh joined
@@ -238,14 +252,7 @@ def pieces_error(V, F, pieces: int, advice: str, name: str = "mesh") -> MeshErro
     >>> print(pieces_error(V, T[:1], 2, "map each one"))
     mesh: the mesh has 2 connected pieces; map each one
     """
-    V = np.asarray(V, dtype=np.float64)
-    used = np.unique(np.asarray(F, dtype=np.int64).ravel())
-    P = V[used[used < len(V)]]
-    shared = 0
-    if len(P) > 1:  # welded as the STL reader welds: within STL_WELD of the size (the same in mm, m, at 5e6)
-        lo, hi = P.min(axis=0), P.max(axis=0)
-        label = weld_labels(P - 0.5 * (lo + hi), STL_WELD * float(np.linalg.norm(hi - lo)))
-        shared = len(P) - (int(label.max()) + 1)
+    shared = shared_positions(V, F)
     if shared:
         return MeshError(name, f"the mesh has {pieces} connected pieces that share {shared} vertex positions: it is "
                                "not welded; weld it (Rhino: _Weld, or _Join then _Weld) and send it again")

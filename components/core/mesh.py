@@ -484,6 +484,22 @@ def weld_labels(P: np.ndarray, tol: float) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
+def piece_count(F, n: int) -> int:
+    """Connected pieces of the faces ``F`` (padded) over ``n`` vertices, vertices no face uses not counted.
+
+    >>> piece_count(np.array([[0, 1, 2], [3, 4, 5]]), 7)
+    2
+    """
+    # deferred import: as in weld_labels
+    from scipy.sparse import coo_matrix
+    # deferred import: as above
+    from scipy.sparse.csgraph import connected_components
+
+    F = np.asarray(F, dtype=np.int64)
+    graph = coo_matrix((np.ones(F.size), (F.ravel(), np.roll(F, -1, axis=1).ravel())), shape=(n, n))
+    return int(connected_components(graph, directed=False)[0]) - (n - len(np.unique(F)))
+
+
 def weld_map(X: np.ndarray, used: np.ndarray, tol: float) -> np.ndarray | None:
     """``(n,)`` representative (smallest index) of every vertex of ``X (n, 3)`` after welding the ``used`` ones within
     ``tol`` (:func:`weld_labels`; pass centred coordinates); ``None`` when no two used vertices are that close.

@@ -56,7 +56,7 @@ from components.core.memo import ContentCache, digest
 from components.core.curvature import face_principal_curvature, vertex_principal_curvature
 from components.core.errors import InputError, MeshError
 from components.core.measures import cross, unit
-from components.core.mesh import boundary_loops, edge_topology, triangulate
+from components.core.mesh import boundary_loops, edge_topology, piece_count, triangulate
 from components.core.parallel import concurrently
 from components.core.types import Curves, Mesh, Points
 from components.fields.extract import iso_segments
@@ -959,8 +959,7 @@ def _disk_boundary_loops(V: np.ndarray, T: np.ndarray, E: np.ndarray | None = No
     used[T.ravel()] = True
     nused = int(np.count_nonzero(used))  # vertices of the triangles
     chi = nused - ne + m
-    ncomp = connected_components(sp.csr_matrix((np.ones(3 * m), (T.ravel(), np.roll(T, -1, 1).ravel())),
-                                               shape=(n, n)), directed=False)[0] - (n - nused)
+    ncomp = piece_count(T, n)
     if ncomp != 1:
         raise pieces_error(V, T, ncomp, "parametrize them one at a time")
     genus2 = 2 - len(loops) - chi

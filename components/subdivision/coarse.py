@@ -55,15 +55,14 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from components.core.checks import check_choice, check_int, check_mesh, check_points, pieces_error
+from components.core.checks import check_choice, check_int, check_mesh, check_points, pieces_error, shared_positions
 from components.core.conformal import disk_map
 from components.core.errors import InputError, MeshError
 from components.core.measures import corner_angles, nonconvex_faces, quad_planarity
-from components.core.mesh import boundary_loops, edge_topology, face_normals, face_sizes, pad_faces, triangulate
+from components.core.mesh import (boundary_loops, edge_topology, face_normals, face_sizes, pad_faces, piece_count,
+                                  triangulate)
 from components.core.proximity import PolylineIndex, TriangleIndex
 from components.core.types import Integers, Mesh, Numbers, Points
 from components.fields.candidate import candidate_mesh
@@ -670,14 +669,9 @@ def check_disk_surface(surface, name: str = "surface") -> tuple[np.ndarray, np.n
     T = F if F.shape[1] == 3 else triangulate(F)[0]
     loops = boundary_loops(T, name=name)
     if len(loops) > 1:  # pieces that share positions are an unwelded mesh (every face on its own: a loop each)
-        used = np.unique(T)
-        n = len(V)
-        pieces = connected_components(sp.csr_matrix((np.ones(T.size), (T.ravel(), np.roll(T, -1, 1).ravel())),
-                                                    shape=(n, n)), directed=False)[0] - (n - len(used))
-        if pieces > 1:
-            err = pieces_error(V, T, pieces, "split it into disk-like patches", name)
-            if "not welded" in err.detail:
-                raise err
+        pieces = piece_count(T, len(V))
+        if pieces > 1 and shared_positions(V, T):
+            raise pieces_error(V, T, pieces, "split it into disk-like patches", name)
     if len(loops) != 1:
         raise InputError(name, f"must be a topological disk with one boundary loop, it has {len(loops)}: fill its "
                                "holes or split it into disk-like patches, or use fields/pq_from_conjugate_field "
